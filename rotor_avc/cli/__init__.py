@@ -1,0 +1,46 @@
+"""The ``rotor-avc`` command: one sub-command per module in this package.
+
+Each command module defines ``NAME``, ``HELP`` (one line), ``EXAMPLE`` and ``add_arguments(p)``
+and ``run(args) -> int``. Errors the user can fix (:class:`rotor_avc.errors.RotorAvcError`) are
+printed as one line and exit with status 2; nothing else is caught.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from ..errors import RotorAvcError
+
+COMMANDS = ["poles", "frf", "demo"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rotor-avc",
+        description="Active vibration control of rotating machines: models, analyses, "
+                    "simulation, bags and reports.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="Run `rotor-avc COMMAND --help` for a command's options and an example.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMANDS:
+        mod = importlib.import_module(f"{__name__}.{name.replace('-', '_')}")
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP,
+                           epilog="example:\n  " + mod.EXAMPLE,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except RotorAvcError as exc:
+        print(f"rotor-avc {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

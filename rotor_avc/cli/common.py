@@ -1,0 +1,32 @@
+"""Argument types shared by the commands."""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+
+def speed_range_hz(text: str) -> np.ndarray:
+    """``START:STOP:N`` -> N speeds in Hz from START to STOP inclusive (START > 0)."""
+    parts = text.split(":")
+    try:
+        if len(parts) != 3:
+            raise ValueError
+        start, stop, n = float(parts[0]), float(parts[1]), int(parts[2])
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not START:STOP:N (e.g. 1:250:2000, speeds in Hz)") from None
+    if not (np.isfinite(start) and np.isfinite(stop)) or start <= 0 or stop <= start or n < 2:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: need 0 < START < STOP and N >= 2 (e.g. 1:250:2000)")
+    return np.linspace(start, stop, n)
+
+
+def nonnegative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
+    return value

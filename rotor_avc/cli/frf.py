@@ -1,0 +1,42 @@
+"""``rotor-avc frf``: closed-loop unbalance FRFs over speed, as CSV and dB plots."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.frf import unbalance_frf
+from ..machine import load_machine
+from ..reports.frf_files import plot_frf, write_frf_csv
+from .common import speed_range_hz
+
+NAME = "frf"
+HELP = ("Synchronous (unbalance) frequency responses over rotor speed of every output and "
+        "actuator force, written to DIR/frf.csv with dB plots (damping at w_F = Omega).")
+EXAMPLE = "rotor-avc frf foot_mount_case3 --speed-hz 1:250:2000 --out out/case3"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("config", help="machine config: a YAML path or a shipped name")
+    p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
+                   help="rotational frequencies in Hz (default: the config's analysis.frf_speed_hz)")
+    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--no-plots", action="store_true", help="write only frf.csv")
+
+
+def run(args) -> int:
+    machine = load_machine(args.config)
+    speeds_hz = args.speed_hz
+    if speeds_hz is None:
+        rng = machine.analysis.section("frf_speed_hz")
+        start = rng.number("start", positive=True, unit="Hz")
+        stop = rng.number("stop", minimum=start, unit="Hz")
+        speeds_hz = np.linspace(start, stop, rng.integer("n", minimum=2))
+    frf = unbalance_frf(machine.loop, 2 * np.pi * speeds_hz)
+    args.out.mkdir(parents=True, exist_ok=True)
+    csv_path = write_frf_csv(frf, args.out / "frf.csv")
+    print(f"wrote {csv_path} ({len(frf.responses)} responses x {len(speeds_hz)} speeds)")
+    if not args.no_plots:
+        for path in plot_frf(frf, args.out, machine.plant.name):
+            print(f"wrote {path}")
+    return 0

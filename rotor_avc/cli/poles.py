@@ -1,0 +1,44 @@
+"""``rotor-avc poles``: closed-loop poles at one rotor speed."""
+from __future__ import annotations
+
+import json
+import math
+
+from ..analysis.poles import machine_poles
+from ..machine import load_machine
+from .common import nonnegative_float
+
+NAME = "poles"
+HELP = ("Closed-loop poles of a machine config at one rotor speed (worst-case damping "
+        "procedure), with frequencies and damping ratios.")
+EXAMPLE = "rotor-avc poles foot_mount_case3 --speed-hz 50 --json"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("config", help="machine config: a YAML path or a shipped name (foot_mount_case3)")
+    p.add_argument("--speed-hz", type=nonnegative_float, default=0.0,
+                   help="rotor speed f_r in Hz (default 0)")
+    p.add_argument("--json", action="store_true",
+                   help='print {"speed_hz": F, "poles": [{"re","im","freq_hz","damping_ratio"}]} '
+                        "(re/im in rad/s; one pole of each conjugate pair)")
+
+
+def run(args) -> int:
+    machine = load_machine(args.config)
+    result = machine_poles(machine, 2 * math.pi * args.speed_hz)
+    rows = result.table()
+    if args.json:
+        print(json.dumps({"speed_hz": args.speed_hz, "poles": rows,
+                          "damping_frequency_rad_s": result.w_F,
+                          "damping_frequency_history_rad_s": result.history,
+                          "stable": result.stable}, indent=1))
+        return 0
+    print(f"{machine.plant.name}: poles at f_r = {args.speed_hz:g} Hz "
+          f"({'closed loop' if machine.controllers else 'loops open'})")
+    print("damping frequency w_F iterations [rad/s]: "
+          + " -> ".join(f"{w:.1f}" for w in result.history))
+    print(f"{'re [1/s]':>12} {'im [rad/s]':>12} {'f [Hz]':>10} {'zeta':>8}")
+    for r in rows:
+        print(f"{r['re']:12.3f} {r['im']:12.3f} {r['freq_hz']:10.3f} {r['damping_ratio']:8.4f}")
+    print(f"max Re(s) = {result.max_real:.4g} 1/s -> {'stable' if result.stable else 'UNSTABLE'}")
+    return 0

@@ -1,0 +1,238 @@
+"""Configuration files: finding them, loading YAML with includes, validated access.
+
+Every value is read through a :class:`Section`, which knows the dotted path of the value and the
+file it came from, so that any problem is reported as ``file: machine.stator_mass_kg: must be
+> 0 (got -5) -- fix: ...`` instead of a traceback from deep inside numpy.
+
+Files may say ``include: other.yaml`` (or a list): the included files are loaded first (relative
+to the including file) and the including file's values override them, mapping by mapping.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any, Iterable
+
+import yaml
+
+from .errors import ConfigError
+
+PACKAGE = "rotor_avc"
+_MISSING = object()
+
+
+def share_dirs() -> list[Path]:
+    """Where the package's installed files may live, most specific first.
+
+    The ament index (colcon install), then ``<prefix>/share/rotor_avc`` of this interpreter
+    (``pip install .``), then the source tree (editable install or running from a checkout).
+    """
+    dirs: list[Path] = []
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            dirs.append(Path(prefix) / "share" / PACKAGE)
+    for prefix in (sys.prefix, sys.base_prefix):
+        dirs.append(Path(prefix) / "share" / PACKAGE)
+    dirs.append(Path(__file__).resolve().parent.parent)
+    return dirs
+
+
+def config_dirs() -> list[Path]:
+    """Existing ``config`` folders, in search order."""
+    return [d / "config" for d in share_dirs() if (d / "config").is_dir()]
+
+
+def find_config(name: str | os.PathLike) -> Path:
+    """Resolve a config given as a path, or as a bare name of a file shipped in ``config/``."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    candidates = [path.name] if path.suffix else [path.name + ".yaml", path.name + ".yml"]
+    for folder in config_dirs():
+        for candidate in candidates:
+            if (folder / candidate).is_file():
+                return folder / candidate
+    shipped = sorted({p.name for d in config_dirs() for p in d.glob("*.yaml")})
+    raise ConfigError(
+        str(name), "no such file, and no shipped config of that name",
+        fix="give a path to a YAML file or one of: " + ", ".join(shipped))
+
+
+def _merge(base: dict, override: dict) -> dict:
+    out = dict(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def load_yaml(path: str | os.PathLike, _seen: tuple[Path, ...] = ()) -> dict:
+    """Load a YAML mapping, resolving ``include:`` recursively (cycles are refused)."""
+    path = Path(path).resolve()
+    if path in _seen:
+        raise ConfigError("include", f"include cycle through {path.name}",
+                          fix="remove the circular include", source=str(_seen[0]))
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(str(path), f"cannot read file ({exc.strerror})",
+                          fix="check the path") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError("(yaml)", f"not valid YAML: {exc}".replace("\n", " "),
+                          fix="correct the YAML syntax", source=str(path)) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError("(top level)", "must be a mapping of keys to values",
+                          fix="write `key: value` lines", source=str(path))
+    includes = data.pop("include", [])
+    if isinstance(includes, str):
+        includes = [includes]
+    merged: dict = {}
+    for inc in includes:
+        inc_path = (path.parent / inc) if not Path(inc).is_absolute() else Path(inc)
+        if not inc_path.is_file():
+            raise ConfigError("include", f"included file {inc!r} not found",
+                              fix="give a path relative to the including file", source=str(path))
+        merged = _merge(merged, load_yaml(inc_path, _seen + (path,)))
+    return _merge(merged, data)
+
+
+def load_config(name: str | os.PathLike) -> "Section":
+    """Find and load a configuration file as a validated :class:`Section`."""
+    path = find_config(name)
+    return Section(load_yaml(path), "", str(path))
+
+
+class Section:
+    """A mapping from a config file with validated, path-aware accessors."""
+
+    def __init__(self, data: dict, path: str = "", source: str = ""):
+        self.data = data
+        self.path = path
+        self.source = source
+
+    # -- helpers ---------------------------------------------------------------------------
+    def _field(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    def error(self, key: str, problem: str, fix: str = "") -> ConfigError:
+        return ConfigError(self._field(key), problem, fix, self.source)
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def keys(self) -> list[str]:
+        return list(self.data.keys())
+
+    def raw(self, key: str, default: Any = _MISSING) -> Any:
+        if key not in self.data:
+            if default is _MISSING:
+                raise self.error(key, "missing", fix=f"add `{key}:` to {self.path or 'the file'}")
+            return default
+        return self.data[key]
+
+    def check_keys(self, allowed: Iterable[str]) -> None:
+        """Refuse unknown keys (a misspelt key must not be silently ignored)."""
+        allowed = set(allowed)
+        for key in self.data:
+            if key not in allowed:
+                raise self.error(str(key), "unknown key",
+                                 fix="use one of: " + ", ".join(sorted(allowed)))
+
+    # -- typed accessors --------------------------------------------------------------------
+    def section(self, key: str, default: Any = _MISSING) -> "Section":
+        value = self.raw(key, default)
+        if value is None:
+            value = {}
+        if not isinstance(value, dict):
+            raise self.error(key, f"must be a mapping (got {type(value).__name__})",
+                             fix="indent the sub-keys below it")
+        return Section(value, self._field(key), self.source)
+
+    def number(self, key: str, default: Any = _MISSING, *, positive: bool = False,
+               nonnegative: bool = False, minimum: float | None = None,
+               maximum: float | None = None, unit: str = "") -> float:
+        value = self.raw(key, default)
+        return check_number(value, self._field(key), source=self.source, positive=positive,
+                            nonnegative=nonnegative, minimum=minimum, maximum=maximum, unit=unit)
+
+    def integer(self, key: str, default: Any = _MISSING, *, minimum: int | None = None,
+                maximum: int | None = None) -> int:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(key, f"must be an integer (got {value!r})")
+        if minimum is not None and value < minimum:
+            raise self.error(key, f"must be >= {minimum} (got {value})")
+        if maximum is not None and value > maximum:
+            raise self.error(key, f"must be <= {maximum} (got {value})")
+        return value
+
+    def string(self, key: str, default: Any = _MISSING) -> str:
+        value = self.raw(key, default)
+        if not isinstance(value, str):
+            raise self.error(key, f"must be a string (got {value!r})")
+        return value
+
+    def choice(self, key: str, choices: Iterable[str], default: Any = _MISSING) -> str:
+        choices = list(choices)
+        value = self.raw(key, default)
+        if value not in choices:
+            raise self.error(key, f"unknown value {value!r}",
+                             fix="use one of: " + ", ".join(map(str, choices)))
+        return value
+
+    def number_list(self, key: str, default: Any = _MISSING, *, length: int | None = None,
+                    min_length: int = 0, nonempty_leading: bool = False) -> list[float]:
+        value = self.raw(key, default)
+        if not isinstance(value, (list, tuple)):
+            raise self.error(key, f"must be a list of numbers (got {value!r})",
+                             fix="write it as [a, b, ...]")
+        if length is not None and len(value) != length:
+            raise self.error(key, f"must have {length} entries (got {len(value)})")
+        if len(value) < min_length:
+            raise self.error(key, f"must have at least {min_length} entries (got {len(value)})")
+        out = [check_number(v, f"{self._field(key)}[{i}]", source=self.source)
+               for i, v in enumerate(value)]
+        if nonempty_leading and out and out[0] == 0.0:
+            raise self.error(key, "leading coefficient is zero",
+                             fix="drop leading zeros (coefficients go highest power first)")
+        return out
+
+
+def check_number(value: Any, field: str, *, source: str = "", positive: bool = False,
+                 nonnegative: bool = False, minimum: float | None = None,
+                 maximum: float | None = None, unit: str = "") -> float:
+    """Validate one number; the message names the field and, where given, its unit."""
+    unit_txt = f" {unit}" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, str):
+            try:
+                float(value)
+                hint = "write it without quotes, with a signed exponent (1.0e+6), so YAML reads a number"
+            except ValueError:
+                hint = f"give a plain number in SI units{unit_txt} (no unit suffix)"
+        else:
+            hint = f"give a number{unit_txt}"
+        raise ConfigError(field, f"must be a number (got {value!r})", fix=hint, source=source)
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(field, f"must be finite (got {value})", fix="give a finite number",
+                          source=source)
+    if positive and value <= 0.0:
+        raise ConfigError(field, f"must be > 0 (got {value}{unit_txt})",
+                          fix=f"give a positive value in SI units{unit_txt}", source=source)
+    if nonnegative and value < 0.0:
+        raise ConfigError(field, f"must be >= 0 (got {value}{unit_txt})",
+                          fix="give a non-negative value (check the sign convention)", source=source)
+    if minimum is not None and value < minimum:
+        raise ConfigError(field, f"must be >= {minimum}{unit_txt} (got {value})", source=source)
+    if maximum is not None and value > maximum:
+        raise ConfigError(field, f"must be <= {maximum}{unit_txt} (got {value})", source=source)
+    return value

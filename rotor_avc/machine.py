@@ -1,0 +1,67 @@
+"""A machine setup from one config file: the plant, its controllers and the analysis settings."""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from .analysis.closed_loop import ClosedLoop
+from .config import Section, load_config
+from .control.spec import ContinuousController, controller_from_config
+from .errors import ConfigError, ModelError
+from .models.plant import LinearPlant
+
+#: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
+MODELS = {
+    "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
+}
+
+#: per-foot keys the digital controller reads (rotor_avc.control); allowed next to G_c(s)
+RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
+                           "back_calculation_gain", "delay_samples")
+
+
+@dataclass(frozen=True, eq=False)
+class Machine:
+    """A plant with the continuous controllers its config gives, and the config itself."""
+
+    config: Section
+    plant: LinearPlant
+    controllers: dict[str, ContinuousController]
+
+    @property
+    def loop(self) -> ClosedLoop:
+        return ClosedLoop(self.plant, self.controllers)
+
+    @property
+    def analysis(self) -> Section:
+        return self.config.section("analysis", {})
+
+
+def build_plant(cfg: Section) -> LinearPlant:
+    model = cfg.choice("model", MODELS)
+    try:
+        return importlib.import_module(MODELS[model]).build(cfg)
+    except ModelError as exc:
+        raise ConfigError("(model)", str(exc), source=cfg.source) from None
+
+
+def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousController]:
+    sec = cfg.section("controllers", {})
+    ids = [a.id for a in plant.actuators]
+    controllers = {}
+    for foot in sec.keys():
+        if foot not in ids:
+            known = ", ".join(ids) if ids else "none (no foot carries an actuator)"
+            raise sec.error(str(foot), "unknown foot id or a foot without an actuator",
+                            fix=f"controllers go on actuated feet; this machine's are: {known}")
+        ctrl = controller_from_config(sec.section(foot), RUNTIME_CONTROLLER_KEYS)
+        if ctrl is not None:
+            controllers[foot] = ctrl
+    return controllers
+
+
+def load_machine(name) -> Machine:
+    """Load, validate and build a machine config (a path or a shipped config name)."""
+    cfg = load_config(name)
+    plant = build_plant(cfg)
+    return Machine(cfg, plant, build_controllers(cfg, plant))

@@ -1,0 +1,199 @@
+"""Seed 000 (Werner 2021): 18-DOF machine on four (active) feet over a soft foundation.
+
+Generalised coordinates (eq. 10, 0-based here): machine ``z_s, y_s, x_s, phi_sz, phi_sy,
+phi_sx`` and the vertical, lateral and axial displacements of the four foundation points in the
+order DL, DR, NL, NR.
+
+The matrices are assembled from the foot kinematics (digest section 2.2)::
+
+    z_a,ij = z_s + alpha_i phi_sy + beta_j phi_sx
+    y_a,ij = y_s - alpha_i phi_sz - h phi_sx
+    x_a,ij = x_s - beta_j phi_sz + h phi_sy
+    alpha_D = +a_D, alpha_N = -a_N, beta_L = -b_L, beta_R = +b_R
+
+as ``C = sum_ij sum_q c_aq w_q w_q^T + sum c_fq e e^T`` with ``w_q = [R_q, -e_qf]`` (digest 3.4),
+which reproduces the Appendix formulas (55)-(134) with the typos of (72) and (81) fixed; the test
+suite checks it against the Appendix entries written out. Damping: ``D_eta`` from the same
+formulas with ``c -> c tan(delta)`` (eq. 8); gyroscopic ``G[phi_sz, phi_sy] = +Omega theta_rx``
+(eq. 12); excitations ``P_e = [1, -j, 0...]`` (static, per kg m) and ``P_alpha = [0, 0, 0, 1, -j,
+0...]`` (moment, per kg m^2) times ``Omega^2`` (eqs. 13-14).
+
+Mounting ``direct`` (case 1) ties each foundation point rigidly to its foot and reduces the model
+to the six machine coordinates, ``q = T_r q6`` (digest 3.10); outputs are expanded with ``T_r``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..config import Section
+from .plant import Actuator, Excitation, LinearPlant, Output
+
+FEET = ("DL", "DR", "NL", "NR")
+DIRECTIONS = ("z", "y", "x")
+MACHINE_COORDS = ("z_s", "y_s", "x_s", "phi_sz", "phi_sy", "phi_sx")
+COORDS = MACHINE_COORDS + tuple(f"{d}_f{f}" for d in DIRECTIONS for f in FEET)
+MOUNTS = ("actuator", "stiff_element", "none")
+
+
+def foundation_index(direction: str, foot: str) -> int:
+    """0-based index of a foundation-point coordinate (z: 6-9, y: 10-13, x: 14-17)."""
+    return 6 + 4 * DIRECTIONS.index(direction) + FEET.index(foot)
+
+
+def foot_kinematic_rows(a_D: float, a_N: float, b_L: float, b_R: float, h: float) -> dict:
+    """``{(foot, direction): 6-row}``: motion of machine foot ``foot`` on the machine DOF."""
+    rows = {}
+    for foot in FEET:
+        alpha = a_D if foot[0] == "D" else -a_N
+        beta = -b_L if foot[1] == "L" else b_R
+        rows[(foot, "z")] = np.array([1.0, 0, 0, 0, alpha, beta])
+        rows[(foot, "y")] = np.array([0, 1.0, 0, -alpha, 0, -h])
+        rows[(foot, "x")] = np.array([0, 0, 1.0, -beta, h, 0])
+    return rows
+
+
+def _xyz(sec: Section, key: str, *, positive: bool, unit: str) -> dict[str, float]:
+    sub = sec.section(key)
+    sub.check_keys(DIRECTIONS)
+    return {d: sub.number(d, positive=positive, nonnegative=True, unit=unit) for d in DIRECTIONS}
+
+
+def _loss_factor(sec: Section, key: str = "tan_delta") -> float:
+    value = sec.number(key, nonnegative=True)
+    if value >= 0.2:
+        raise sec.error(key, f"loss factor {value} is outside the model's range (eq. 44 needs "
+                             "tan(delta) < 0.2)", fix="give the loss factor tan(delta), not a percentage")
+    return value
+
+
+def _element(sec: Section) -> dict:
+    sec.check_keys(("armature_mass_kg", "stator_mass_kg", "stiffness_n_per_m", "tan_delta"))
+    return {
+        "m_aa": sec.number("armature_mass_kg", nonnegative=True, unit="kg"),
+        "m_as": sec.number("stator_mass_kg", nonnegative=True, unit="kg"),
+        "c": _xyz(sec, "stiffness_n_per_m", positive=True, unit="N/m"),
+        "tan_delta": _loss_factor(sec),
+    }
+
+
+def build(cfg: Section) -> LinearPlant:
+    """Build the seed-000 plant from a validated config (see ``config/foot_mount_*.yaml``)."""
+    cfg.check_keys(("model", "name", "include", "machine", "foundation", "mounting", "elements",
+                    "feet", "controllers", "analysis", "description", "simulation", "balancer"))
+    mach = cfg.section("machine")
+    mach.check_keys(("stator_mass_kg", "rotor_mass_kg", "stator_inertia_kg_m2",
+                     "rotor_polar_inertia_kg_m2", "rotor_transverse_inertia_kg_m2",
+                     "foot_height_m", "foot_lateral_arm_m", "foot_axial_arm_m",
+                     "bearing_axial_position_m"))
+    m_s = mach.number("stator_mass_kg", positive=True, unit="kg")
+    m_r = mach.number("rotor_mass_kg", positive=True, unit="kg")
+    theta_s = _xyz(mach, "stator_inertia_kg_m2", positive=True, unit="kg m^2")
+    theta_rx = mach.number("rotor_polar_inertia_kg_m2", nonnegative=True, unit="kg m^2")
+    theta_rzy = mach.number("rotor_transverse_inertia_kg_m2", nonnegative=True, unit="kg m^2")
+    h = mach.number("foot_height_m", nonnegative=True, unit="m")
+    lat = mach.section("foot_lateral_arm_m")
+    lat.check_keys(("L", "R"))
+    ax = mach.section("foot_axial_arm_m")
+    ax.check_keys(("D", "N"))
+    brg = mach.section("bearing_axial_position_m")
+    brg.check_keys(("D", "N"))
+    b_L, b_R = lat.number("L", positive=True, unit="m"), lat.number("R", positive=True, unit="m")
+    a_D, a_N = ax.number("D", positive=True, unit="m"), ax.number("N", positive=True, unit="m")
+    l_D, l_N = brg.number("D", nonnegative=True, unit="m"), brg.number("N", nonnegative=True, unit="m")
+
+    fnd = cfg.section("foundation")
+    fnd.check_keys(("mass_kg", "tan_delta", "stiffness_n_per_m"))
+    m_f = fnd.number("mass_kg", positive=True, unit="kg")
+    tan_f = _loss_factor(fnd)
+    c_f = _xyz(fnd, "stiffness_n_per_m", positive=True, unit="N/m")
+
+    mounting = cfg.choice("mounting", ("elements", "direct"))
+    feet_sec = cfg.section("feet", {}) if mounting == "direct" else cfg.section("feet")
+    feet_sec.check_keys(FEET)
+    mounts = {f: feet_sec.choice(f, MOUNTS, default="none") for f in FEET}
+    if mounting == "direct" and any(m != "none" for m in mounts.values()):
+        raise cfg.error("feet", "mounting: direct ties every foot rigidly to the foundation, so "
+                                "no foot can carry an element",
+                        fix="set every foot to `none` or use `mounting: elements`")
+    elements_sec = cfg.section("elements", {})
+    elements_sec.check_keys(("actuator", "stiff_element"))
+    elements = {}
+    for kind in set(mounts.values()) - {"none"}:
+        elements[kind] = _element(elements_sec.section(kind))
+
+    rows = foot_kinematic_rows(a_D, a_N, b_L, b_R, h)
+    n = 18
+    M = np.zeros((n, n))
+    C = np.zeros((n, n))
+    D_eta = np.zeros((n, n))
+    M[:6, :6] = np.diag([m_s + m_r] * 3 + [theta_s["z"] + theta_rzy, theta_s["y"] + theta_rzy,
+                                             theta_s["x"]])
+    for foot in FEET:
+        el = elements.get(mounts[foot])
+        for d in DIRECTIONS:
+            k = foundation_index(d, foot)
+            M[k, k] += m_f + (el["m_as"] if el else 0.0)
+            C[k, k] += c_f[d]
+            D_eta[k, k] += c_f[d] * tan_f
+            if el is None:
+                continue
+            r = rows[(foot, d)]
+            M[:6, :6] += el["m_aa"] * np.outer(r, r)
+            w = np.zeros(n)
+            w[:6] = r
+            w[k] = -1.0
+            C += el["c"][d] * np.outer(w, w)
+            D_eta += el["c"][d] * el["tan_delta"] * np.outer(w, w)
+    G1 = np.zeros((n, n))
+    G1[3, 4], G1[4, 3] = theta_rx, -theta_rx
+    p_e = np.zeros(n, complex)
+    p_e[:2] = [1.0, -1j]
+    p_alpha = np.zeros(n, complex)
+    p_alpha[3:5] = [1.0, -1j]
+
+    # bearing housings on the rotor axis at +l_D (D) and -l_N (N), h = beta = 0 (digest 2.2)
+    bearing = {"D": l_D, "N": -l_N}
+    out_rows: list[tuple[str, np.ndarray]] = []
+    for side, pos in bearing.items():
+        out_rows += [(f"bearing_{side}_vz", np.array([1.0, 0, 0, 0, pos, 0])),
+                     (f"bearing_{side}_vy", np.array([0, 1.0, 0, -pos, 0, 0])),
+                     (f"bearing_{side}_vx", np.array([0, 0, 1.0, 0, 0, 0]))]
+    out_rows = [(name, np.concatenate([r, np.zeros(12)])) for name, r in out_rows]
+    for foot in FEET:
+        for d in DIRECTIONS:
+            e = np.zeros(n)
+            e[foundation_index(d, foot)] = 1.0
+            out_rows.append((f"foundation_{foot}_v{d}", e))
+    sensor = {foot: np.concatenate([rows[(foot, "z")], np.zeros(12)]) for foot in FEET}
+    actuators = []
+    for foot in FEET:
+        if mounts[foot] == "actuator":
+            P = sensor[foot].copy()
+            P[foundation_index("z", foot)] = -1.0    # eqs. (16)-(19): P_a = s - e_zf
+            actuators.append((foot, P))
+
+    coords = COORDS
+    if mounting == "direct":
+        T = np.zeros((n, 6))                          # rigid foot-foundation tie, q = T q6
+        T[:6] = np.eye(6)
+        for foot in FEET:
+            for d in DIRECTIONS:
+                T[foundation_index(d, foot)] = rows[(foot, d)]
+        M, C, D_eta, G1 = (T.T @ X @ T for X in (M, C, D_eta, G1))
+        p_e, p_alpha = T.T @ p_e, T.T @ p_alpha
+        out_rows = [(name, r @ T) for name, r in out_rows]
+        sensor = {foot: r @ T for foot, r in sensor.items()}
+        coords = MACHINE_COORDS
+    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
+    return LinearPlant(
+        name=cfg.string("name", "foot_mount_3d"),
+        coords=coords,
+        mass=M, stiffness=C, loss_damping=D_eta, viscous_damping=np.zeros_like(M),
+        gyroscopic=G1, circulatory=np.zeros_like(M),
+        actuators=tuple(Actuator(foot, P, sensor[foot], "z") for foot, P in actuators),
+        excitations=(Excitation("static", "kg*m", p_e), Excitation("moment", "kg*m^2", p_alpha)),
+        outputs=tuple(Output(name, r, 1, "m/s") for name, r in out_rows),
+        damping_floor_rad_s=2 * np.pi * floor,
+        config=cfg.data,
+        force_points=tuple((foot, "z") for foot in FEET),
+    )

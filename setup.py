@@ -1,0 +1,44 @@
+"""ament_python package that also installs with pip (see README)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = "rotor_avc"
+
+NODES: list[str] = []  # grows as the ROS adapters land (rotor_avc/nodes)
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*", "bench", "bench.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+        ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
+    ],
+    package_data={package_name: []},
+    install_requires=[
+        "setuptools",
+        "numpy>=1.24",
+        "scipy>=1.10",
+        "PyYAML>=6",
+        "matplotlib>=3.7",
+        "mcap>=1.1",
+        "mcap-ros2-support>=0.5",
+    ],
+    extras_require={
+        # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)
+        "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
+        "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "control>=0.10", "catkin_pkg"],
+    },
+    zip_safe=True,
+    maintainer="rotor_avc developers",
+    maintainer_email="rotor-avc@example.org",
+    description="Active vibration control of rotating machines (ROS 2 nodes over a numpy/scipy core)",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": ["rotor-avc = rotor_avc.cli:main"]
+        + [f"{node} = rotor_avc.nodes.{node}:main" for node in NODES],
+    },
+)

@@ -1,0 +1,26 @@
+"""Test-suite settings: ROS traffic stays on loopback in a private domain; plots off-screen.
+
+``--full`` runs the long physics sweeps in full (CI runs them in their short form)."""
+import os
+
+import pytest
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ["ROS_DOMAIN_ID"] = str(100 + os.getpid() % 100)
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--full", action="store_true", default=False,
+                     help="run the long physics sweeps in full instead of their short form")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "sweep: long physics sweep; short form unless --full")
+    config.addinivalue_line("markers", "ros: needs rclpy (ROS 2 Jazzy from PyPI)")
+
+
+@pytest.fixture
+def full(request) -> bool:
+    """True when the long sweeps should run in full."""
+    return request.config.getoption("--full")
