@@ -99,12 +99,23 @@ def worst_case_poles(loop: ClosedLoop, speed_rad_s: float, n_modes: int = 6, tol
                      "analysis.worst_case.max_iter or check the model")
 
 
-def machine_poles(machine, speed_rad_s: float) -> PoleResult:
-    """Poles of a configured machine with the damping procedure its config names
-    (``analysis.worst_case`` for seed 000: Figure 4)."""
+def _worst_case_from_config(machine, speed_rad_s: float) -> PoleResult:
     wc = machine.analysis.section("worst_case", {})
     wc.check_keys(("n_modes", "rel_change_tol", "max_iter"))
     return worst_case_poles(machine.loop, speed_rad_s,
                             n_modes=wc.integer("n_modes", 6, minimum=1),
                             tol=wc.number("rel_change_tol", 0.05, positive=True, maximum=1.0),
                             max_iter=wc.integer("max_iter", 20, minimum=1))
+
+
+#: ``analysis.pole_method`` -> ``f(machine, speed_rad_s) -> PoleResult``; each plant's config
+#: names the damping procedure of its paper (seed 000: Figure 4's worst case).
+POLE_METHODS = {
+    "worst_case": _worst_case_from_config,
+}
+
+
+def machine_poles(machine, speed_rad_s: float) -> PoleResult:
+    """Poles of a configured machine with the damping procedure its config names."""
+    method = machine.analysis.choice("pole_method", POLE_METHODS, default="worst_case")
+    return POLE_METHODS[method](machine, speed_rad_s)
