@@ -15,6 +15,10 @@ MODELS = {
     "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
 }
 
+#: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``
+COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analysis",
+               "simulation", "balancer")
+
 #: per-foot keys the digital controller reads (rotor_avc.control); allowed next to G_c(s)
 RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
                            "back_calculation_gain", "delay_samples")
@@ -39,8 +43,10 @@ class Machine:
 
 def build_plant(cfg: Section) -> LinearPlant:
     model = cfg.choice("model", MODELS)
+    module = importlib.import_module(MODELS[model])
+    cfg.check_keys(COMMON_KEYS + module.MODEL_KEYS)
     try:
-        return importlib.import_module(MODELS[model]).build(cfg)
+        return module.build(cfg)
     except ModelError as exc:
         raise ConfigError("(model)", str(exc), source=cfg.source) from None
 
