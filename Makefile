@@ -16,7 +16,7 @@ setup: $(VENV)/.installed
 
 $(VENV)/.installed: setup.py requirements-ros.txt
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --upgrade pip "setuptools>=70.1" wheel
 	$(PY) -m pip install --quiet -r requirements-ros.txt
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $@

@@ -36,7 +36,6 @@ setup(
     maintainer_email="rotor-avc@example.org",
     description="Active vibration control of rotating machines (ROS 2 nodes over a numpy/scipy core)",
     license="Apache-2.0",
-    tests_require=["pytest"],
     entry_points={
         "console_scripts": ["rotor-avc = rotor_avc.cli:main"]
         + [f"{node} = rotor_avc.nodes.{node}:main" for node in NODES],

@@ -61,8 +61,17 @@ def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousC
             raise sec.error(str(foot), "unknown foot id or a foot without an actuator",
                             fix=f"controllers go on actuated feet; this machine's are: {known}")
         ctrl = controller_from_config(sec.section(foot), RUNTIME_CONTROLLER_KEYS)
-        if ctrl is not None:
-            controllers[foot] = ctrl
+        if ctrl is None:
+            continue
+        if ctrl.structure == "tf" and not ctrl.is_proper:
+            raise sec.error(str(foot), "G_c(s) is improper (numerator degree > denominator "
+                            "degree) and cannot run as a filter",
+                            fix="add a filter pole to the denominator (e.g. a derivative filter)")
+        try:
+            ctrl.law_split()
+        except ModelError as exc:
+            raise sec.error(str(foot), str(exc)) from None
+        controllers[foot] = ctrl
     return controllers
 
 
