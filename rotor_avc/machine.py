@@ -13,6 +13,7 @@ from .models.plant import LinearPlant
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
     "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
+    "active_bearing": "rotor_avc.models.active_bearing",
 }
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``

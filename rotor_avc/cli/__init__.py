@@ -12,7 +12,7 @@ import sys
 
 from ..errors import RotorAvcError
 
-COMMANDS = ["poles", "frf", "demo"]
+COMMANDS = ["poles", "frf", "demo", "active-bearing"]
 
 
 def build_parser() -> argparse.ArgumentParser:
