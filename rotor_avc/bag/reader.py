@@ -1,0 +1,363 @@
+"""Reading bags written by this package, the recorder node or ``ros2 bag record -s mcap``.
+
+:class:`BagReader` gives the topics (type, count, QoS, type hash), the time range, the MCAP
+metadata and the run configuration, decoded messages (dicts, :mod:`.cdr`, decoded from the
+bag's own ``ros2msg`` schemas, so foreign types work too), raw CDR for replay, and numpy time
+series per topic (:class:`TopicSeries`). The series path reads each chunk once, finds the
+channel's messages through the MCAP message index and decodes every numeric field of all
+messages with one numpy copy when the messages share one structure (the usual case); otherwise
+it decodes message by message.
+
+Every problem is a :class:`~rotor_avc.bag.errors.BagError` naming it: no such file, an empty
+(0-byte) file, not MCAP, a truncated file (no footer: the recording was killed -- finish it
+with :func:`rotor_avc.bag.recover.recover_bag`), not the ``ros2`` profile, a topic whose schema
+cannot be decoded (unknown encoding, IDL, a missing dependency), no configuration metadata, a
+bag or topic without messages.
+"""
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+import zstandard
+from mcap.exceptions import McapError
+from mcap.reader import SeekingReader
+
+from .cdr import CdrCodec, CdrError
+from .errors import BagError
+from .mcap_writer import MAGIC, MESSAGE_HEADER
+from .metadata import CONFIG_RECORD, decode_config, parse_qos_yaml
+from .msgdefs import MsgDefError, parse_schema
+from .topics import labels_of
+
+_RECOVER_FIX = ("finish it with rotor_avc.bag.recover.recover_bag(path) (or `mcap recover`); "
+                "at most the last chunk is lost")
+_CHUNK_FIXED = struct.Struct("<QQQI")
+#: what a damaged record raises inside mcap, zstandard, lz4 (RuntimeError) and struct
+DAMAGE_ERRORS = (McapError, zstandard.ZstdError, RuntimeError, ValueError, struct.error,
+                 zlib.error, IndexError, EOFError)
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    name: str
+    msg_type: str
+    count: int
+    type_hash: str
+    qos: list
+
+
+@dataclass(frozen=True)
+class BagMessage:
+    topic: str
+    time_ns: int
+    publish_time_ns: int
+    sequence: int
+    data: Any          # dict (decoded) or bytes (raw)
+
+
+@dataclass
+class TopicSeries:
+    """One topic as arrays: ``time_ns`` (log time) and every numeric field by path
+    (``accel.linear.z``, ``position`` (N, count), ``header.stamp.sec`` ...). For a labelled
+    array ``series["bearing_D_vz"]`` is that column of ``data``; ``"position[0]"`` picks one
+    element of a sequence field."""
+
+    topic: str
+    msg_type: str
+    time_ns: np.ndarray
+    fields: dict[str, np.ndarray]
+    labels: list[str]
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.time_ns * 1e-9
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name in self.fields:
+            return self.fields[name]
+        if name in self.labels and "data" in self.fields:
+            return self.fields["data"][:, self.labels.index(name)]
+        base, _, rest = name.partition("[")
+        if rest.endswith("]") and rest[:-1].isdigit() and base in self.fields:
+            column = int(rest[:-1])
+            values = self.fields[base]
+            if values.ndim == 2 and column < values.shape[1]:
+                return values[:, column]
+        raise BagError(self.topic, f"no field {name!r}",
+                       fix="use one of " + ", ".join(list(self.fields) + self.labels))
+
+
+class BagReader:
+    """Open a bag for reading (a context manager; also usable without ``with``)."""
+
+    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False):
+        self.path = Path(path)
+        self._file = self._open_checked()
+        try:
+            self._reader = SeekingReader(self._file, validate_crcs=True)
+            header = self._reader.get_header()
+            self._summary = self._reader.get_summary()
+        except DAMAGE_ERRORS as exc:
+            self.close()
+            raise BagError(self.path, f"damaged MCAP file ({exc})", fix=_RECOVER_FIX) from None
+        if header.profile != "ros2":
+            self.close()
+            raise BagError(self.path, f"MCAP profile is {header.profile!r}, not 'ros2'",
+                           fix="record the bag with rosbag2 or this package")
+        if self._summary is None or self._summary.statistics is None:
+            self.close()
+            raise BagError(self.path, "the file has no summary/statistics section",
+                           fix="rebuild it with rotor_avc.bag.recover.recover_bag(path)")
+        self._codecs: dict[int, CdrCodec | BagError] = {}
+        self.check(require_config=require_config, require_messages=require_messages)
+
+    def _open_checked(self):
+        if not self.path.is_file():
+            raise BagError(self.path, "no such bag file", fix="check the path")
+        size = self.path.stat().st_size
+        if size == 0:
+            raise BagError(self.path, "empty file (0 bytes)",
+                           fix="the recording never started; record the run again")
+        f = open(self.path, "rb")
+        start = f.read(len(MAGIC))
+        f.seek(max(0, size - len(MAGIC)))
+        end = f.read(len(MAGIC))
+        if start != MAGIC:
+            f.close()
+            raise BagError(self.path, "not an MCAP file (wrong magic bytes)",
+                           fix="give a .mcap bag written by rosbag2 or rotor_avc")
+        if end != MAGIC or size < 2 * len(MAGIC) + 9 + 29:
+            f.close()
+            raise BagError(self.path, f"truncated: the file ends after {size} bytes without the "
+                           "MCAP footer (the recording was interrupted)", fix=_RECOVER_FIX)
+        f.seek(0)
+        return f
+
+    # -- what is in it ---------------------------------------------------------------------
+    @property
+    def topics(self) -> dict[str, TopicInfo]:
+        stats = self._summary.statistics
+        out = {}
+        for cid, ch in sorted(self._summary.channels.items()):
+            schema = self._summary.schemas.get(ch.schema_id)
+            qos = parse_qos_yaml(ch.metadata.get("offered_qos_profiles", ""))
+            out[ch.topic] = TopicInfo(ch.topic, schema.name if schema else "",
+                                      stats.channel_message_counts.get(cid, 0),
+                                      ch.metadata.get("topic_type_hash", ""), qos)
+        return out
+
+    @property
+    def message_count(self) -> int:
+        return self._summary.statistics.message_count
+
+    @property
+    def time_range_ns(self) -> tuple[int, int]:
+        stats = self._summary.statistics
+        return stats.message_start_time, stats.message_end_time
+
+    @property
+    def metadata(self) -> dict[str, dict[str, str]]:
+        try:
+            return {m.name: dict(m.metadata) for m in self._reader.iter_metadata()}
+        except DAMAGE_ERRORS as exc:
+            raise BagError(self.path, f"damaged metadata record ({exc})",
+                           fix=_RECOVER_FIX) from None
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The run configuration (sections of :mod:`.metadata`)."""
+        record = self.metadata.get(CONFIG_RECORD)
+        if record is None:
+            raise BagError(self.path, "the bag carries no run configuration (no `rotor_avc` "
+                           "metadata record)", fix="record the run with rotor_avc's recorder "
+                           "or simulator, which store the configuration in the bag")
+        return decode_config(record, self.path)
+
+    def check(self, *, require_config: bool = False, require_messages: bool = False) -> None:
+        """Raise the BagError a command needs: configuration present, messages present."""
+        if require_config:
+            self.config
+        if require_messages and self.message_count == 0:
+            raise BagError(self.path, "the bag holds no messages",
+                           fix="record a run that publishes (check the topics and the graph)")
+
+    # -- messages --------------------------------------------------------------------------
+    def _channel_id(self, topic: str) -> int:
+        for cid, ch in self._summary.channels.items():
+            if ch.topic == topic:
+                return cid
+        raise BagError(self.path, f"no topic {topic}",
+                       fix="use one of " + ", ".join(sorted(self.topics)))
+
+    def codec(self, topic: str) -> CdrCodec:
+        """The decoder of a topic (BagError when its schema cannot be decoded)."""
+        cid = self._channel_id(topic)
+        if cid not in self._codecs:
+            self._codecs[cid] = self._make_codec(self._summary.channels[cid])
+        codec = self._codecs[cid]
+        if isinstance(codec, BagError):
+            raise codec
+        return codec
+
+    def _make_codec(self, channel):
+        schema = self._summary.schemas.get(channel.schema_id)
+        what = f"topic {channel.topic}: "
+        fix = "the bag's writer must store ros2msg schemas with their full dependency text"
+        if channel.message_encoding != "cdr":
+            return BagError(self.path, what + f"message encoding {channel.message_encoding!r} "
+                            "is not cdr", fix=fix)
+        if schema is None:
+            return BagError(self.path, what + "no schema", fix=fix)
+        if schema.encoding != "ros2msg":
+            return BagError(self.path, what + f"unknown schema {schema.name!r} with encoding "
+                            f"{schema.encoding!r} (only ros2msg is decoded)", fix=fix)
+        try:
+            return CdrCodec(schema.name, parse_schema(schema.name, schema.data.decode()))
+        except (MsgDefError, UnicodeDecodeError) as exc:
+            return BagError(self.path, what + f"unknown schema {schema.name!r}: {exc}", fix=fix)
+
+    def raw_messages(self, topics=None, start_ns=None, end_ns=None) -> Iterator[BagMessage]:
+        """Messages in log-time order with ``data`` the CDR bytes (for replay)."""
+        names = [topics] if isinstance(topics, str) else topics
+        for name in names or ():
+            self._channel_id(name)
+        try:
+            for _, channel, msg in self._reader.iter_messages(
+                    topics=names, start_time=start_ns, end_time=end_ns, log_time_order=True):
+                yield BagMessage(channel.topic, msg.log_time, msg.publish_time, msg.sequence,
+                                 msg.data)
+        except DAMAGE_ERRORS as exc:
+            raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
+
+    def messages(self, topics=None, start_ns=None, end_ns=None) -> Iterator[BagMessage]:
+        """Decoded messages (dicts) in log-time order."""
+        for m in self.raw_messages(topics, start_ns, end_ns):
+            yield BagMessage(m.topic, m.time_ns, m.publish_time_ns, m.sequence,
+                             self._decode(m.topic, m.data))
+
+    def _decode(self, topic: str, data: bytes) -> dict:
+        try:
+            return self.codec(topic).decode(data)
+        except CdrError as exc:
+            raise BagError(self.path, f"topic {topic}: message does not match its schema "
+                           f"({exc})") from None
+
+    # -- time series -----------------------------------------------------------------------
+    def series(self, topic: str) -> TopicSeries:
+        """All messages of a topic as numpy arrays (see :class:`TopicSeries`)."""
+        codec = self.codec(topic)
+        cid = self._channel_id(topic)
+        if self.topics[topic].count == 0:
+            raise BagError(self.path, f"topic {topic} has no messages",
+                           fix="check that the run published it")
+        times, rows = self._indexed_rows(cid)
+        if rows is not None:
+            first = self._decode(topic, rows[0].tobytes())
+            layout = codec.layout(rows[0].tobytes())
+            if layout.matches(rows):
+                return TopicSeries(topic, codec.type_name, times, layout.decode(rows),
+                                   labels_of(first))
+        return self._series_by_message(topic, codec.type_name)
+
+    def _indexed_rows(self, cid: int):
+        """(times, (N, size) payload bytes) via the message index, or (None, None)."""
+        times, blocks = [], []
+        for ci in sorted(self._summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+            if cid not in ci.message_index_offsets:
+                if not ci.message_index_offsets:
+                    return None, None          # a writer without message indexes
+                continue
+            entries = self._message_index(ci.message_index_offsets[cid])
+            records = self._chunk_records(ci)
+            offsets = entries[:, 1].astype(np.int64)
+            try:
+                length = records[offsets[:, None] + np.arange(1, 9)].copy().view("<u8")[:, 0]
+                size = length.astype(np.int64) - (MESSAGE_HEADER.size - 9)
+                if np.any(size != size[0]) or (blocks and size[0] != blocks[0].shape[1]):
+                    return None, None
+                blocks.append(records[offsets[:, None] + MESSAGE_HEADER.size
+                                      + np.arange(size[0])])
+            except (IndexError, ValueError):
+                raise BagError(self.path, "damaged message index (offsets outside the chunk)",
+                               fix=_RECOVER_FIX) from None
+            times.append(entries[:, 0].astype(np.int64))
+        if not blocks:
+            return None, None
+        times = np.concatenate(times)
+        order = np.argsort(times, kind="stable")
+        return times[order], np.concatenate(blocks)[order]
+
+    def _message_index(self, offset: int) -> np.ndarray:
+        self._file.seek(offset)
+        op, _, _, nbytes = struct.unpack("<BQHI", self._file.read(15))
+        body = self._file.read(nbytes)
+        if op != 0x07 or len(body) != nbytes:
+            raise BagError(self.path, "damaged message index", fix=_RECOVER_FIX)
+        return np.frombuffer(body, "<u8").reshape(-1, 2)
+
+    def _chunk_records(self, ci) -> np.ndarray:
+        self._file.seek(ci.chunk_start_offset + 9)
+        raw = self._file.read(ci.chunk_length - 9)
+        try:
+            _, _, usize, crc = _CHUNK_FIXED.unpack_from(raw, 0)
+            (clen,) = struct.unpack_from("<I", raw, 28)
+            compression = raw[32:32 + clen].decode()
+            (dlen,) = struct.unpack_from("<Q", raw, 32 + clen)
+            data = raw[40 + clen:40 + clen + dlen]
+            if compression == "zstd":
+                data = zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
+            elif compression == "lz4":
+                import lz4.frame
+                data = lz4.frame.decompress(data)
+            elif compression:
+                raise McapError(f"unknown chunk compression {compression!r}")
+        except DAMAGE_ERRORS as exc:
+            raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
+        if len(data) != usize or (crc and zlib.crc32(data) != crc):
+            raise BagError(self.path, "damaged chunk (size or CRC mismatch)", fix=_RECOVER_FIX)
+        return np.frombuffer(data, np.uint8)
+
+    def _series_by_message(self, topic: str, msg_type: str) -> TopicSeries:
+        times, flat = [], []
+        labels: list[str] = []
+        for m in self.messages(topic):
+            times.append(m.time_ns)
+            flat.append(dict(_numeric_leaves(m.data, "")))
+            labels = labels or labels_of(m.data)
+        common = set(flat[0]).intersection(*flat[1:])
+        fields = {}
+        for path in flat[0]:
+            if path in common and len({np.shape(f[path]) for f in flat}) == 1:
+                fields[path] = np.array([f[path] for f in flat])
+        return TopicSeries(topic, msg_type, np.asarray(times, np.int64), fields, labels)
+
+    # -- closing ---------------------------------------------------------------------------
+    def close(self) -> None:
+        if getattr(self, "_file", None) is not None and not self._file.closed:
+            self._file.close()
+
+    def __enter__(self) -> "BagReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _numeric_leaves(msg: dict, prefix: str):
+    for key, value in msg.items():
+        path = prefix + key
+        if isinstance(value, dict):
+            yield from _numeric_leaves(value, path + ".")
+        elif isinstance(value, np.ndarray):
+            yield path, value
+        elif isinstance(value, list):
+            for i, item in enumerate(value):
+                if isinstance(item, dict):
+                    yield from _numeric_leaves(item, f"{path}[{i}].")
+        elif isinstance(value, (int, float, bool)):
+            yield path, value

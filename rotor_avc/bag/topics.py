@@ -1,0 +1,189 @@
+"""The recorded topics and message types (DESIGN.md section 4), and time series -> bag streams.
+
+Namespace ``/<machine>``, default ``/avc``; all types are standard ROS 2 messages (SI units):
+
+* ``/avc/rotor/joint_state`` -- sensor_msgs/msg/JointState: ``name = ["rotor"]``,
+  ``position`` = shaft angle (rad, integrated, not wrapped), ``velocity`` = Omega (rad/s),
+  ``effort`` empty;
+* ``/avc/foot/<id>/acceleration`` -- geometry_msgs/msg/AccelStamped: ``accel.linear.z``
+  (m/s^2), frame ``foot_<id>``;
+* ``/avc/foot/<id>/actuator_force`` -- geometry_msgs/msg/WrenchStamped: ``wrench.force.z`` (N),
+  frame ``foot_<id>``, stamp = the measurement it answers;
+* ``/avc/plant/observables`` -- std_msgs/msg/Float64MultiArray, labelled (below): the plant's
+  output quantities;
+* ``/avc/balancer/estimate`` and ``/avc/balancer/command`` -- std_msgs/msg/Float64MultiArray,
+  labelled ``<excitation>_re``, ``<excitation>_im``: the estimated unbalance and the correction
+  command as complex amplitudes (kg m, kg m^2);
+* ``/clock`` -- rosgraph_msgs/msg/Clock: the sim time (lockstep mode);
+* ``/diagnostics`` -- diagnostic_msgs/msg/DiagnosticArray: node status and timing.
+
+A **labelled array** is a Float64MultiArray with one dimension whose ``label`` is the
+comma-separated list of element names (``bearing_D_vz,bearing_D_vy,...``), ``size = stride =``
+the number of elements, ``data_offset = 0``; ``data[i]`` is the value of name ``i``. Names are
+the plant's output names (``rotor_avc.models.plant.Output.name``) and units their units.
+
+Every message is stamped and logged at its sim time: log time = publish time = header stamp
+(the actuator force's stamp may name an earlier measurement). :class:`Stream` holds one topic's
+time series; the builders below make them from arrays, and
+:meth:`rotor_avc.bag.writer.BagWriter.write_streams` writes them in one vectorised pass.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from .errors import BagError
+
+NAMESPACE = "avc"
+FOOT_IDS = ("DL", "DR", "NL", "NR")
+#: topic pattern (relative to the namespace unless absolute) -> message type
+TOPIC_TYPES = {
+    "rotor/joint_state": "sensor_msgs/msg/JointState",
+    "foot/{id}/acceleration": "geometry_msgs/msg/AccelStamped",
+    "foot/{id}/actuator_force": "geometry_msgs/msg/WrenchStamped",
+    "plant/observables": "std_msgs/msg/Float64MultiArray",
+    "balancer/estimate": "std_msgs/msg/Float64MultiArray",
+    "balancer/command": "std_msgs/msg/Float64MultiArray",
+    "/clock": "rosgraph_msgs/msg/Clock",
+    "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+}
+
+
+def topic(name: str, namespace: str = NAMESPACE) -> str:
+    """Full topic name: ``rotor/joint_state`` -> ``/avc/rotor/joint_state``; absolute kept."""
+    return name if name.startswith("/") else f"/{namespace.strip('/')}/{name}"
+
+
+def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
+    """``/avc/foot/<id>/acceleration`` or ``.../actuator_force``."""
+    if kind not in ("acceleration", "actuator_force"):
+        raise BagError("(topic)", f"unknown foot topic kind {kind!r}",
+                       fix="use acceleration or actuator_force")
+    return topic(f"foot/{foot_id}/{kind}", namespace)
+
+
+def message_type(full_topic: str, namespace: str = NAMESPACE) -> str:
+    """The message type of one of the package's topics (BagError for any other topic)."""
+    for pattern, msg_type in TOPIC_TYPES.items():
+        parts = topic(pattern, namespace).split("/")
+        given = full_topic.split("/")
+        if len(parts) == len(given) and all(p == g or p == "{id}" for p, g in zip(parts, given)):
+            return msg_type
+    raise BagError("(topic)", f"{full_topic!r} is not one of the package's topics",
+                   fix="give the message type explicitly, or use one of "
+                       + ", ".join(topic(p, namespace) for p in TOPIC_TYPES))
+
+
+def to_ns(time_s) -> np.ndarray:
+    """Seconds -> integer nanoseconds (rounded), as int64."""
+    t = np.asarray(time_s, dtype=float)
+    if t.ndim != 1 or not np.all(np.isfinite(t)) or np.any(t < 0):
+        raise BagError("(time)", "times must be a 1-D array of finite, non-negative seconds")
+    return np.round(t * 1e9).astype(np.int64)
+
+
+def stamp_fields(prefix: str, time_ns: np.ndarray) -> dict[str, np.ndarray]:
+    """``{prefix.sec, prefix.nanosec}`` of builtin_interfaces/Time for each time."""
+    sec, nanosec = np.divmod(np.asarray(time_ns, np.int64), 1_000_000_000)
+    return {f"{prefix}.sec": sec.astype(np.int32), f"{prefix}.nanosec": nanosec.astype(np.uint32)}
+
+
+@dataclass
+class Stream:
+    """One topic's messages: a template giving the structure (strings, sequence lengths) and
+    per-message values of numeric fields (``path -> (N,) or (N, count)``)."""
+
+    topic: str
+    msg_type: str
+    time_ns: np.ndarray
+    template: dict
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.time_ns = np.asarray(self.time_ns, np.int64)
+        n = self.time_ns.shape[0]
+        for path, values in self.fields.items():
+            if np.shape(values)[:1] != (n,):
+                rows = np.shape(values)[0] if np.ndim(values) else "no"
+                raise BagError("(stream)", f"{self.topic}: field {path!r} has {rows} rows, "
+                               f"the times have {n}",
+                               fix="give one value (row) per message time")
+
+
+def _check_len(name: str, values, n: int) -> np.ndarray:
+    arr = np.asarray(values, dtype=float)
+    if arr.shape[:1] != (n,):
+        count = arr.shape[0] if arr.ndim else "a single value, not"
+        raise BagError("(stream)", f"{name}: {count} values for {n} times",
+                       fix="give one value per sample time")
+    return arr
+
+
+def joint_state(time_s, angle_rad, speed_rad_s, namespace: str = NAMESPACE) -> Stream:
+    """``rotor/joint_state``: shaft angle and speed."""
+    t = to_ns(time_s)
+    fields = {"position": _check_len("angle_rad", angle_rad, len(t)),
+              "velocity": _check_len("speed_rad_s", speed_rad_s, len(t)),
+              **stamp_fields("header.stamp", t)}
+    template = {"header": {"frame_id": "rotor"}, "name": ["rotor"], "position": [0.0],
+                "velocity": [0.0]}
+    return Stream(topic("rotor/joint_state", namespace), TOPIC_TYPES["rotor/joint_state"], t,
+                  template, fields)
+
+
+def foot_acceleration(foot_id: str, time_s, accel_m_s2, namespace: str = NAMESPACE) -> Stream:
+    """``foot/<id>/acceleration``: vertical foot acceleration (linear.z)."""
+    t = to_ns(time_s)
+    fields = {"accel.linear.z": _check_len(f"{foot_id} acceleration", accel_m_s2, len(t)),
+              **stamp_fields("header.stamp", t)}
+    return Stream(foot_topic(foot_id, "acceleration", namespace),
+                  TOPIC_TYPES["foot/{id}/acceleration"], t,
+                  {"header": {"frame_id": f"foot_{foot_id}"}}, fields)
+
+
+def actuator_force(foot_id: str, time_s, force_n, stamp_s=None,
+                   namespace: str = NAMESPACE) -> Stream:
+    """``foot/<id>/actuator_force``: force.z, stamped with the measurement it answers."""
+    t = to_ns(time_s)
+    stamp = t if stamp_s is None else to_ns(stamp_s)
+    _check_len("stamp_s", stamp, len(t))
+    fields = {"wrench.force.z": _check_len(f"{foot_id} force", force_n, len(t)),
+              **stamp_fields("header.stamp", stamp)}
+    return Stream(foot_topic(foot_id, "actuator_force", namespace),
+                  TOPIC_TYPES["foot/{id}/actuator_force"], t,
+                  {"header": {"frame_id": f"foot_{foot_id}"}}, fields)
+
+
+def labelled_array(name: str, time_s, labels: Sequence[str], values,
+                   namespace: str = NAMESPACE) -> Stream:
+    """A labelled Float64MultiArray topic (``plant/observables``, ``balancer/...``)."""
+    labels = [str(label) for label in labels]
+    bad = [label for label in labels if not label or "," in label or label != label.strip()]
+    if bad or len(set(labels)) != len(labels):
+        raise BagError("(stream)", f"{name}: labels must be unique, non-empty, without commas "
+                       f"or surrounding spaces (got {labels})")
+    t = to_ns(time_s)
+    data = _check_len(name, values, len(t)).reshape(len(t), -1)
+    if data.shape[1] != len(labels):
+        raise BagError("(stream)", f"{name}: {data.shape[1]} columns for {len(labels)} labels")
+    n = len(labels)
+    template = {"layout": {"dim": [{"label": ",".join(labels), "size": n, "stride": n}]},
+                "data": np.zeros(n)}
+    return Stream(topic(name, namespace), TOPIC_TYPES["plant/observables"], t, template,
+                  {"data": data})
+
+
+def clock(time_s) -> Stream:
+    """``/clock``: the sim time itself."""
+    t = to_ns(time_s)
+    return Stream("/clock", TOPIC_TYPES["/clock"], t, {}, stamp_fields("clock", t))
+
+
+def labels_of(message: dict) -> list[str]:
+    """Element names of a decoded labelled array message (see the module docstring)."""
+    dims = message.get("layout", {}).get("dim", [])
+    if len(dims) != 1 or dims[0]["size"] != len(message.get("data", ())):
+        return []
+    return dims[0]["label"].split(",") if dims[0]["label"] else []
