@@ -9,6 +9,8 @@ OUT ?= out/demo
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export ROS_DOMAIN_ID ?= 57
 export MPLBACKEND ?= Agg
+# small dense matrices: threaded BLAS only adds contention (5-30x slower on 2 cores)
+export OPENBLAS_NUM_THREADS ?= 1
 
 .PHONY: setup demo test test-full bench clean
 

@@ -8,6 +8,8 @@ import pytest
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ["ROS_DOMAIN_ID"] = str(100 + os.getpid() % 100)
 os.environ.setdefault("MPLBACKEND", "Agg")
+# small dense matrices: threaded BLAS only adds contention on a 2-core machine (5-30x slower)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def pytest_addoption(parser):

@@ -1,0 +1,103 @@
+"""``rotor-avc controller``: one foot's controller, continuous and discrete, and its gain margin."""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.poles import machine_poles
+from ..analysis.sampled_loop import SampledLoop
+from ..control.block import build_digital_controllers
+from ..errors import ModelError
+from ..machine import load_machine
+from .common import nonnegative_float
+
+NAME = "controller"
+HELP = ("Print a foot controller's continuous G_c(s) and discrete G_d(z) coefficients, plot "
+        "G_c(jw) against G_d(e^{jwT}) and print the stable gain range of the sampled loop.")
+#: the gains a common factor scales (filter corners and time constants stay)
+GAIN_KEYS = ("kp", "ki", "kd", "gain")
+EXAMPLE = "rotor-avc controller foot_mount_case3 --foot DL --rate-hz 5000 --out out/ctrl"
+
+
+def _positive_float(text: str) -> float:
+    value = nonnegative_float(text)
+    if value == 0.0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def add_arguments(p) -> None:
+    p.add_argument("config", help="machine config: a YAML path or a shipped name")
+    p.add_argument("--foot", required=True, help="actuator id of a controlled foot (e.g. DL)")
+    p.add_argument("--rate-hz", type=_positive_float, default=None,
+                   help="sample rate in Hz (default: the config's control.sample_rate_hz)")
+    p.add_argument("--speed-hz", type=nonnegative_float, default=0.0,
+                   help="rotor speed of the gain-range search in Hz (default 0); damping at the "
+                        "w_F of the config's continuous pole procedure")
+    p.add_argument("--out", type=Path, default=Path("."),
+                   help="folder for controller_<foot>_bode.png (default: current folder)")
+
+
+def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
+    """``|G_c(jw)|`` and phase against the discrete filter ``G_d(e^{jwT})`` up to Nyquist."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nyq = 0.5 / tf.sample_period_s
+    f = np.logspace(np.log10(nyq) - 5, np.log10(nyq), 800)
+    w = 2 * np.pi * f
+    gc, gd = ctrl(1j * w), tf.frequency_response(w)
+    db_c = 20 * np.log10(np.abs(gc))
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    ax1.semilogx(f, db_c, label="G_c(jw), continuous")
+    with np.errstate(divide="ignore"):
+        ax1.semilogx(f, 20 * np.log10(np.abs(gd)), "--", label=f"G_d(e^(jwT)), {tf.method}")
+    ax2.semilogx(f, np.degrees(np.angle(gc)))
+    ax2.semilogx(f, np.degrees(np.angle(gd)), "--")
+    ax1.set_ylim(db_c.min() - 40, db_c.max() + 20)     # a Tustin zero at Nyquist dives to -inf
+    ax2.set_ylim(-190, 190)
+    ax2.set_yticks(np.arange(-180, 181, 90))
+    ax1.set_ylabel("magnitude [dB re 1 SI]")
+    ax2.set_ylabel("phase [deg]")
+    ax2.set_xlabel(f"frequency [Hz] (Nyquist {nyq:g} Hz)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def run(args) -> int:
+    machine = load_machine(args.config)
+    if args.foot not in machine.controllers:
+        known = ", ".join(machine.controllers) or "none"
+        raise ModelError(f"--foot {args.foot}: no controller at that foot; controlled feet: {known}")
+    T = None if args.rate_hz is None else 1.0 / args.rate_hz
+    blocks = build_digital_controllers(machine, T)
+    ctrl, block = machine.controllers[args.foot], blocks[args.foot]
+    fmt = lambda v: "[" + ", ".join(f"{x:.10g}" for x in v) + "]"  # noqa: E731
+    print(f"{machine.plant.name} foot {args.foot}: {ctrl.describe()}  (force = -G_c * signal)")
+    print(f"continuous G_c(s): num = {fmt(ctrl.num)}, den = {fmt(ctrl.den)}")
+    print("discrete " + block.describe())
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = plot_bode(ctrl, block.tf, args.out / f"controller_{args.foot}_bode.png",
+                     f"{machine.plant.name} {args.foot}: {ctrl.describe()}")
+    print(f"wrote {path}")
+    speed = 2 * math.pi * args.speed_hz
+    w_F = machine_poles(machine, speed).w_F
+    rng = SampledLoop.from_blocks(machine.plant, blocks).stable_gain_range(speed, w_F)
+    print(f"stable gain range of the sampled loop (all {len(blocks)} controllers scaled by g; "
+          f"f_r = {args.speed_hz:g} Hz, w_F = {w_F:.1f} rad/s):")
+    nominal = {k: ", ".join(f"{name} {v * rng.lower:.4g} .. "
+                            + ("inf" if math.isinf(rng.upper) else f"{v * rng.upper:.4g}")
+                            for name, v in c.gains if name in GAIN_KEYS)
+               for k, c in machine.controllers.items() if c.gains}
+    print("  " + rng.describe(nominal))
+    return 0

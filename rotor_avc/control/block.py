@@ -1,0 +1,192 @@
+"""The digital foot controller block: what the simulator, the in-process loop and the ROS node run.
+
+At sample ``k`` (DESIGN.md section 3) the block takes the foot's measured signal (its
+``feedback`` kind: displacement, velocity or acceleration) and returns the actuator force held
+over ``[t_k, t_k+1)``::
+
+    f_k = -lim( G_d(z) * signal_{k - d} )        (seed 000 eq. 7: f_a = -G_c(s) s^k z_a)
+
+with ``G_d`` the discretised ``G_c`` (:mod:`rotor_avc.control.discretize`), ``d`` extra
+``delay_samples``, and ``lim`` the force and rate limits with anti-windup
+(:mod:`rotor_avc.control.limits`). Everything per sample is plain Python floats.
+
+:func:`build_digital_controllers` builds one block per controlled actuator of a
+:class:`rotor_avc.machine.Machine` from its config::
+
+    control:                      # machine-wide (all optional)
+      sample_rate_hz: 5000.0      # default 5000
+      method: tustin              # tustin | zoh | foh
+      prewarp_hz: 100.0           # tustin only, below Nyquist
+    controllers:
+      DL: {type: I, feedback: acceleration, ki: 1.4e+5,
+           force_limit_n: 2000.0, rate_limit_n_per_s: 1.0e+6,
+           anti_windup: back_calculation, back_calculation_gain: 50.0, delay_samples: 0}
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+
+from ..errors import ConfigError, ModelError
+from .discretize import METHODS, DiscreteTf, check_period, discretize_controller
+from .filter import IirFilter
+from .limits import ANTI_WINDUP, OutputLimits, check_anti_windup, limited_step
+
+DEFAULT_SAMPLE_RATE_HZ = 5000.0
+#: keys of the machine config's top-level ``control:`` section
+CONTROL_KEYS = ("sample_rate_hz", "method", "prewarp_hz")
+
+
+class DigitalController:
+    """One foot's discrete controller: filter, delay, limits, anti-windup (module docstring)."""
+
+    def __init__(self, tf: DiscreteTf, *, force_limit_n: float | None = None,
+                 rate_limit_n_per_s: float | None = None, anti_windup: str = "none",
+                 back_calculation_gain: float | None = None, delay_samples: int = 0,
+                 name: str = ""):
+        if isinstance(delay_samples, bool) or not isinstance(delay_samples, int) or delay_samples < 0:
+            raise ModelError(f"delay_samples must be an integer >= 0 (got {delay_samples!r})")
+        self.name = name
+        self.tf = tf
+        self.sample_period_s = tf.sample_period_s
+        self.feedback = tf.feedback
+        self.delay_samples = delay_samples
+        self.filter = IirFilter(tf.b, tf.a)
+        self.limits = OutputLimits(tf.sample_period_s, force_limit_n, rate_limit_n_per_s)
+        self.anti_windup = anti_windup
+        self._kb = check_anti_windup(anti_windup, self.limits, tf.sample_period_s,
+                                     back_calculation_gain)
+        self._limited = self.limits.active
+        self._delay: deque[float] = deque([0.0] * delay_samples)
+        self.last_force_n = 0.0
+
+    # -- state -------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """At rest: zero filter state, empty (zero) delay line, zero force."""
+        self.filter.reset()
+        self.limits.reset(0.0)
+        self._delay = deque([0.0] * self.delay_samples)
+        self.last_force_n = 0.0
+
+    @property
+    def state(self) -> dict:
+        """Filter state, pending delayed inputs (oldest first), last force, gain factor."""
+        return {"filter": self.filter.state, "delay": tuple(self._delay),
+                "last_force_n": self.last_force_n, "gain": self.filter.gain}
+
+    def set_state(self, state: dict) -> None:
+        """Restore a :attr:`state` (filter state, delay line oldest first, last force)."""
+        delay = [float(v) for v in state.get("delay", ())]
+        if len(delay) != self.delay_samples or not all(math.isfinite(v) for v in delay):
+            raise ModelError(f"delay state must be {self.delay_samples} finite numbers (got {delay})")
+        self.filter.set_state(state["filter"])
+        self._delay = deque(delay)
+        self.last_force_n = float(state.get("last_force_n", 0.0))
+        self.limits.reset(-self.last_force_n)
+        if "gain" in state:
+            self.filter.set_gain(state["gain"])
+
+    @property
+    def gain(self) -> float:
+        """Gain factor relative to the designed ``G_c`` (1 = as configured)."""
+        return self.filter.gain
+
+    def set_gain(self, factor: float) -> None:
+        """Scale ``G_c`` by ``factor`` without a bump in the stored force (see filter module)."""
+        self.filter.set_gain(factor)
+
+    def init_steady_state(self, measurement: float = 0.0, force_n: float | None = None) -> None:
+        """Start in the steady state of a constant ``measurement`` (force ``-G_d(1) signal``, or
+        the held ``force_n`` of an integrating controller with zero input): no transient."""
+        if not math.isfinite(measurement):
+            raise ModelError(f"measurement must be finite (got {measurement})")
+        before = self.filter.state
+        self.filter.init_steady_state(measurement, None if force_n is None else -force_n)
+        y = self.filter.output(measurement)
+        if abs(y) > self.limits.force_limit_n * (1 + 1e-12):
+            self.filter.set_state(before)
+            raise ModelError(f"steady-state force {-y:g} N exceeds force_limit_n "
+                             f"{self.limits.force_limit_n:g} N")
+        self.limits.reset(y)
+        self._delay = deque([float(measurement)] * self.delay_samples)
+        self.last_force_n = -y
+
+    # -- stepping ----------------------------------------------------------------------------
+    def step(self, measurement: float) -> float:
+        """Measured signal at ``t_k`` -> actuator force (N) to hold over ``[t_k, t_k+1)``."""
+        measurement = float(measurement)          # numpy scalars would slow every later step
+        if not math.isfinite(measurement):
+            raise ModelError(f"{self.name or 'controller'}: non-finite measurement {measurement} "
+                             "(sensor fault?) -- the controller state was left unchanged")
+        if self.delay_samples:
+            self._delay.append(measurement)
+            measurement = self._delay.popleft()
+        if self._limited:
+            y = limited_step(self.filter, measurement, self.limits, self.anti_windup, self._kb)
+        else:
+            y = self.filter.step(measurement)
+        self.last_force_n = -y
+        return -y
+
+    def describe(self) -> str:
+        extras = []
+        if self.limits.force_limit_n < math.inf:
+            extras.append(f"force limit {self.limits.force_limit_n:g} N")
+        if self.limits.max_step_n < math.inf:
+            extras.append(f"rate limit {self.limits.max_step_n / self.sample_period_s:g} N/s")
+        if self.anti_windup != "none":
+            extras.append(f"anti-windup {self.anti_windup}")
+        if self.delay_samples:
+            extras.append(f"{self.delay_samples} extra delay samples")
+        head = f"{self.name}: " if self.name else ""
+        return head + self.tf.describe() + ("\n  " + ", ".join(extras) if extras else "")
+
+
+# -- from a machine config ---------------------------------------------------------------------
+def control_settings(machine, sample_period_s: float | None = None):
+    """``(T, method, prewarp_hz)`` from the config's ``control:`` section (``T`` overridable)."""
+    sec = machine.config.section("control", {})
+    sec.check_keys(CONTROL_KEYS)
+    if sample_period_s is None:
+        rate = sec.number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ, positive=True, unit="Hz")
+        sample_period_s = 1.0 / rate
+    T = check_period(sample_period_s)
+    method = sec.choice("method", METHODS, default="tustin")
+    prewarp = sec.number("prewarp_hz", None, positive=True, unit="Hz") if sec.has("prewarp_hz") else None
+    if prewarp is not None and method != "tustin":
+        raise sec.error("prewarp_hz", f"applies to method tustin only (method is {method})",
+                        fix="drop prewarp_hz or set method: tustin")
+    if prewarp is not None and prewarp >= 0.5 / T:
+        raise sec.error("prewarp_hz", f"{prewarp:g} Hz is at or above the Nyquist frequency "
+                        f"{0.5 / T:g} Hz of the {1 / T:g} Hz sample rate",
+                        fix="lower prewarp_hz or raise sample_rate_hz")
+    return T, method, prewarp
+
+
+def build_digital_controllers(machine, sample_period_s: float | None = None
+                              ) -> dict[str, DigitalController]:
+    """One :class:`DigitalController` per controlled actuator of ``machine`` (config order)."""
+    T, method, prewarp = control_settings(machine, sample_period_s)
+    feet = machine.config.section("controllers", {})
+    blocks = {}
+    for act_id, ctrl in machine.controllers.items():
+        sec = feet.section(act_id)
+        try:
+            tf = discretize_controller(ctrl, T, method, prewarp)
+        except ModelError as exc:
+            raise ConfigError(sec.path, str(exc), source=sec.source) from None
+        opt = lambda key, **kw: sec.number(key, None, **kw) if sec.has(key) else None  # noqa: E731
+        force_limit = opt("force_limit_n", positive=True, unit="N")
+        rate_limit = opt("rate_limit_n_per_s", positive=True, unit="N/s")
+        kb = opt("back_calculation_gain", positive=True, unit="1/s")
+        anti_windup = sec.choice("anti_windup", ANTI_WINDUP, default="none")
+        delay = sec.integer("delay_samples", 0, minimum=0, maximum=1000)
+        try:
+            blocks[act_id] = DigitalController(
+                tf, force_limit_n=force_limit, rate_limit_n_per_s=rate_limit,
+                anti_windup=anti_windup, back_calculation_gain=kb, delay_samples=delay,
+                name=act_id)
+        except ModelError as exc:
+            key = "back_calculation_gain" if "back_calculation_gain" in str(exc) else "anti_windup"
+            raise sec.error(key, str(exc)) from None
+    return blocks
