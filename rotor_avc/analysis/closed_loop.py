@@ -15,7 +15,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 import scipy.signal
 
 from ..control.spec import ContinuousController
@@ -104,26 +103,24 @@ class ClosedLoop:
                 a, b, c, d = scipy.signal.tf2ss(rnum, rden)
                 blocks.append((act, a, b[:, 0], c[0]))
         nc = sum(a.shape[0] for _, a, _, _ in blocks)
-        try:
-            lu = scipy.linalg.lu_factor(M, check_finite=True)
-        except (ValueError, np.linalg.LinAlgError):
-            raise ModelError("closed-loop mass matrix is singular") from None
-        cond = np.linalg.cond(M)
+        cond = np.linalg.cond(M) if np.all(np.isfinite(M)) else np.inf
         if not np.isfinite(cond) or cond > 1e13:
             raise ModelError(
                 f"the closed-loop mass matrix M + sum K_m P s^T is singular (cond {cond:.2g}): an "
                 "acceleration-feedback gain cancels the machine's mass -- lower the gain")
+        # numpy's solve: scipy's getrs is slow for small matrices when its BLAS threads contend
+        M_inv = np.linalg.solve(M, np.eye(n))
         A = np.zeros((2 * n + nc, 2 * n + nc))
         A[:n, n:2 * n] = np.eye(n)
-        A[n:2 * n, :n] = -scipy.linalg.lu_solve(lu, C)
-        A[n:2 * n, n:2 * n] = -scipy.linalg.lu_solve(lu, D)
+        A[n:2 * n, :n] = -M_inv @ C
+        A[n:2 * n, n:2 * n] = -M_inv @ D
         k = 2 * n
         for act, a, b, c in blocks:
             m = a.shape[0]
-            A[n:2 * n, k:k + m] = -np.outer(scipy.linalg.lu_solve(lu, act.force_vector), c)
+            A[n:2 * n, k:k + m] = -np.outer(M_inv @ act.force_vector, c)
             A[k:k + m, :n] = np.outer(b, act.sensor_row)
             A[k:k + m, k:k + m] = a
             k += m
         B = np.zeros((2 * n + nc, n))
-        B[n:2 * n] = scipy.linalg.lu_solve(lu, np.eye(n))
+        B[n:2 * n] = M_inv
         return A, B

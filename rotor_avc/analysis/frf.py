@@ -48,8 +48,12 @@ class SpeedFrf:
             return 20 * np.log10(np.abs(self.responses[name]))
 
 
-def unbalance_frf(loop: ClosedLoop, speed_rad_s, excitations=None, w_F=None) -> SpeedFrf:
-    """Synchronous responses of every output and actuator force to each excitation."""
+def unbalance_frf(loop: ClosedLoop, speed_rad_s, excitations=None, w_F=None,
+                  accel_rad_s2=0.0) -> SpeedFrf:
+    """Synchronous responses of every output and actuator force to each excitation.
+
+    ``accel_rad_s2`` (scalar or per speed) adds the tangential ``-j Omega'`` part of the phasor
+    of an accelerating rotor (quasi-steady 1x influence coefficients during a run-up)."""
     plant = loop.plant
     speeds = np.atleast_1d(np.asarray(speed_rad_s, dtype=float))
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(speeds <= 0):
@@ -58,7 +62,8 @@ def unbalance_frf(loop: ClosedLoop, speed_rad_s, excitations=None, w_F=None) -> 
     w_F = plant.forced_damping_frequency(speeds) if w_F is None else np.broadcast_to(w_F, speeds.shape)
     s = 1j * speeds
     Z = loop.dynamic_stiffness(s, speeds, w_F)
-    F = np.stack([e.phasor(speeds) for e in excs], axis=-1)          # (N, n, m)
+    accel = np.broadcast_to(np.asarray(accel_rad_s2, dtype=float), speeds.shape)
+    F = np.stack([e.phasor(speeds, accel) for e in excs], axis=-1)   # (N, n, m)
     Q = np.linalg.solve(Z, F)                                        # (N, n, m)
     names, rows, orders = plant.output_rows()
     out_q = np.einsum("kn,Nnm->Nkm", rows, Q) * (s[:, None, None] ** orders[None, :, None])

@@ -6,14 +6,17 @@ Namespace ``/<machine>``, default ``/avc``; all types are standard ROS 2 message
   ``position`` = shaft angle (rad, integrated, not wrapped), ``velocity`` = Omega (rad/s),
   ``effort`` empty;
 * ``/avc/foot/<id>/acceleration`` -- geometry_msgs/msg/AccelStamped: ``accel.linear.z``
-  (m/s^2), frame ``foot_<id>``;
+  (m/s^2), frame ``foot_<id>``; for a controller fed back on velocity or displacement also
+  ``/avc/foot/<id>/velocity`` (geometry_msgs/msg/TwistStamped, ``twist.linear.z``, m/s) and
+  ``/avc/foot/<id>/displacement`` (geometry_msgs/msg/PointStamped, ``point.z``, m); the
+  component is the actuator's axis (z for foot mounts);
 * ``/avc/foot/<id>/actuator_force`` -- geometry_msgs/msg/WrenchStamped: ``wrench.force.z`` (N),
   frame ``foot_<id>``, stamp = the measurement it answers;
-* ``/avc/plant/observables`` -- std_msgs/msg/Float64MultiArray, labelled (below): the plant's
-  output quantities;
+* ``/avc/plant/observables`` -- std_msgs/msg/Float64MultiArray, labelled (below): the sample
+  time ``time_s`` then the plant's measurement vector (foot signals and output quantities);
 * ``/avc/balancer/estimate`` and ``/avc/balancer/command`` -- std_msgs/msg/Float64MultiArray,
-  labelled ``<excitation>_re``, ``<excitation>_im``: the estimated unbalance and the correction
-  command as complex amplitudes (kg m, kg m^2);
+  labelled ``time_s``, ``<excitation>_re``, ``<excitation>_im``: the estimated unbalance and the
+  correction command as complex amplitudes (kg m, kg m^2);
 * ``/clock`` -- rosgraph_msgs/msg/Clock: the sim time (lockstep mode);
 * ``/diagnostics`` -- diagnostic_msgs/msg/DiagnosticArray: node status and timing.
 
@@ -42,6 +45,8 @@ FOOT_IDS = ("DL", "DR", "NL", "NR")
 TOPIC_TYPES = {
     "rotor/joint_state": "sensor_msgs/msg/JointState",
     "foot/{id}/acceleration": "geometry_msgs/msg/AccelStamped",
+    "foot/{id}/velocity": "geometry_msgs/msg/TwistStamped",
+    "foot/{id}/displacement": "geometry_msgs/msg/PointStamped",
     "foot/{id}/actuator_force": "geometry_msgs/msg/WrenchStamped",
     "plant/observables": "std_msgs/msg/Float64MultiArray",
     "balancer/estimate": "std_msgs/msg/Float64MultiArray",
@@ -56,11 +61,16 @@ def topic(name: str, namespace: str = NAMESPACE) -> str:
     return name if name.startswith("/") else f"/{namespace.strip('/')}/{name}"
 
 
+#: foot measurement kind -> (topic kind, field path of the vector holding the axis component)
+FOOT_SIGNALS = {"acceleration": "accel.linear", "velocity": "twist.linear",
+                "displacement": "point"}
+
+
 def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
-    """``/avc/foot/<id>/acceleration`` or ``.../actuator_force``."""
-    if kind not in ("acceleration", "actuator_force"):
+    """``/avc/foot/<id>/<kind>``: acceleration, velocity, displacement or actuator_force."""
+    if kind not in tuple(FOOT_SIGNALS) + ("actuator_force",):
         raise BagError("(topic)", f"unknown foot topic kind {kind!r}",
-                       fix="use acceleration or actuator_force")
+                       fix="use acceleration, velocity, displacement or actuator_force")
     return topic(f"foot/{foot_id}/{kind}", namespace)
 
 
@@ -133,23 +143,28 @@ def joint_state(time_s, angle_rad, speed_rad_s, namespace: str = NAMESPACE) -> S
                   template, fields)
 
 
-def foot_acceleration(foot_id: str, time_s, accel_m_s2, namespace: str = NAMESPACE) -> Stream:
-    """``foot/<id>/acceleration``: vertical foot acceleration (linear.z)."""
+def foot_signal(foot_id: str, kind: str, time_s, values, axis: str = "z",
+                namespace: str = NAMESPACE) -> Stream:
+    """``foot/<id>/<kind>``: the foot's acceleration, velocity or displacement (axis component)."""
     t = to_ns(time_s)
-    fields = {"accel.linear.z": _check_len(f"{foot_id} acceleration", accel_m_s2, len(t)),
+    fields = {f"{FOOT_SIGNALS[kind]}.{axis}": _check_len(f"{foot_id} {kind}", values, len(t)),
               **stamp_fields("header.stamp", t)}
-    return Stream(foot_topic(foot_id, "acceleration", namespace),
-                  TOPIC_TYPES["foot/{id}/acceleration"], t,
+    return Stream(foot_topic(foot_id, kind, namespace), TOPIC_TYPES["foot/{id}/" + kind], t,
                   {"header": {"frame_id": f"foot_{foot_id}"}}, fields)
 
 
-def actuator_force(foot_id: str, time_s, force_n, stamp_s=None,
+def foot_acceleration(foot_id: str, time_s, accel_m_s2, namespace: str = NAMESPACE) -> Stream:
+    """``foot/<id>/acceleration``: vertical foot acceleration (linear.z)."""
+    return foot_signal(foot_id, "acceleration", time_s, accel_m_s2, "z", namespace)
+
+
+def actuator_force(foot_id: str, time_s, force_n, stamp_s=None, axis: str = "z",
                    namespace: str = NAMESPACE) -> Stream:
-    """``foot/<id>/actuator_force``: force.z, stamped with the measurement it answers."""
+    """``foot/<id>/actuator_force``: force.<axis>, stamped with the measurement it answers."""
     t = to_ns(time_s)
     stamp = t if stamp_s is None else to_ns(stamp_s)
     _check_len("stamp_s", stamp, len(t))
-    fields = {"wrench.force.z": _check_len(f"{foot_id} force", force_n, len(t)),
+    fields = {f"wrench.force.{axis}": _check_len(f"{foot_id} force", force_n, len(t)),
               **stamp_fields("header.stamp", stamp)}
     return Stream(foot_topic(foot_id, "actuator_force", namespace),
                   TOPIC_TYPES["foot/{id}/actuator_force"], t,

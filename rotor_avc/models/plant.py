@@ -12,12 +12,15 @@ with
 * ``G(Omega) = Omega G1`` -- gyroscopic matrix (seed 000 eq. 12);
 * ``C(Omega, w_F) = C + (Omega / w_F) N_eta`` -- stiffness plus the circulatory (skew) terms of
   rotating internal damping ``d_i Omega`` with ``d_i = c tan(delta_i) / w_F`` (seeds 001, 003);
-* optional speed-dependent terms (sleeve-bearing oil films, seed 001) added to C and D;
+* optional terms that depend on speed and damping frequency, added to C and D (sleeve-bearing
+  oil films and the electromagnetic field damping of seed 001);
 * synchronous excitations whose force phasor per unit amplitude is
   ``F(Omega, Omega') = (Omega^2 - j Omega') p2 + Omega p1 + p0`` (unbalance: ``p2``, the
   ``-j Omega'`` part being the tangential force of an accelerating rotor; bent rotor: ``p0``;
-  magnetic eccentricity: ``p0 + Omega p1``). The physical force is ``Re{F u e^{j theta}}`` with the
-  shaft angle ``theta`` and the complex amplitude ``u`` (for example ``u_e = m e e^{j phi}``);
+  magnetic eccentricity: ``p0 + Omega p1``), optionally times a speed-dependent factor ``k(Omega)``
+  (seed 001's magnetic eccentricity: ``k = c_md(Omega) - j Omega d_m(Omega)``). The physical force
+  is ``Re{F u e^{j theta}}`` with the shaft angle ``theta`` and the complex amplitude ``u`` (for
+  example ``u_e = m e e^{j phi}``);
 * actuators: a force vector ``P_a`` and the displacement row ``s`` of the motion their controller
   measures (the absolute vertical motion of the machine foot);
 * output rows: the quantities the papers plot, each a derivative (0, 1, 2) of ``row . q``.
@@ -46,6 +49,8 @@ class Excitation:
     p2: np.ndarray
     p1: np.ndarray | None = None
     p0: np.ndarray | None = None
+    #: optional ``speed (any shape) -> complex factor k(Omega)`` multiplying the whole phasor
+    speed_factor: Callable[[np.ndarray], np.ndarray] | None = None
 
     def phasor(self, speed, accel=0.0) -> np.ndarray:
         """Force phasor(s) ``F(Omega, Omega')``; ``speed`` may be an array -> shape (N, n)."""
@@ -57,6 +62,8 @@ class Excitation:
             out = out + w * self.p1
         if self.p0 is not None:
             out = out + self.p0 + 0.0 * w
+        if self.speed_factor is not None:
+            out = out * self.speed_factor(speed)[..., None]
         return out
 
 
@@ -96,9 +103,10 @@ class LinearPlant:
     excitations: tuple[Excitation, ...]
     outputs: tuple[Output, ...]
     damping_floor_rad_s: float
-    #: optional ``speed (any shape) -> (dC, dD)`` of shape ``speed.shape + (n, n)``: the
-    #: speed-dependent parts of stiffness and damping (sleeve-bearing oil films)
-    speed_terms: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
+    #: optional ``(speed, w_F) (same shape) -> (dC, dD)`` of shape ``speed.shape + (n, n)``: the
+    #: parts of stiffness and damping that depend on speed and damping frequency (sleeve-bearing
+    #: oil films, electromagnetic field damping)
+    speed_terms: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None
     #: the validated configuration the plant was built from (stored in bags and reports)
     config: dict = field(default_factory=dict)
     #: points whose actuator force is reported, as (id, axis); points without an actuator
@@ -166,7 +174,7 @@ class LinearPlant:
         out = (self.loss_damping / w_F[..., None, None] + self.viscous_damping
                + speed[..., None, None] * self.gyroscopic)
         if self.speed_terms is not None:
-            out = out + self.speed_terms(speed)[1]
+            out = out + self.speed_terms(speed, w_F)[1]
         return out
 
     def stiffness_at(self, speed, w_F) -> np.ndarray:
@@ -176,7 +184,7 @@ class LinearPlant:
         _check_w_F(w_F)
         out = self.stiffness + (speed / w_F)[..., None, None] * self.circulatory
         if self.speed_terms is not None:
-            out = out + self.speed_terms(speed)[0]
+            out = out + self.speed_terms(speed, w_F)[0]
         return out
 
     def output_rows(self, names: Sequence[str] | None = None) -> tuple[list[str], np.ndarray, np.ndarray]:

@@ -1,0 +1,47 @@
+"""An in-process run as a bag: the same topics, types and stamps the ROS graph records.
+
+:func:`write_run_bag` turns a :class:`rotor_avc.sim.timeseries.TimeSeries` of a scenario into the
+streams of rotor_avc.bag.topics, so ``rotor-avc compare``, ``replay`` and every other bag reader
+treat a simulated run and a recorded ROS run alike:
+
+* ``rotor/joint_state`` and ``/clock`` at every sample;
+* ``foot/<id>/acceleration`` of every actuated foot and, for a controller on displacement or
+  velocity, ``foot/<id>/<kind>``;
+* ``foot/<id>/actuator_force`` of every controlled foot, stamped with the sample it answers;
+* ``plant/observables``: ``time_s`` then the measurement vector (foot signals, outputs);
+* ``balancer/command`` when the run had a balancer.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .bag import topics as T
+from .bag.writer import write_bag
+
+
+def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
+    """Write the run ``ts`` of ``scenario`` (rotor_avc.sim.scenario.Scenario) to ``path``."""
+    plant = scenario.machine.plant
+    t = ts.time_s
+    feedback = {foot: c.feedback for foot, c in scenario.machine.controllers.items()}
+    streams = [T.joint_state(t, ts.angle_rad, ts.speed_rad_s, namespace), T.clock(t)]
+    letters = {"acceleration": "a", "velocity": "v", "displacement": "d"}
+    for act in plant.actuators:
+        for kind in sorted({"acceleration", feedback.get(act.id, "acceleration")}):
+            values = ts[f"foot_{act.id}_{letters[kind]}{act.axis}"]
+            streams.append(T.foot_signal(act.id, kind, t, values, act.axis, namespace))
+        if act.id in feedback:
+            streams.append(T.actuator_force(act.id, t, ts[f"actuator_{act.id}_f{act.axis}"],
+                                            axis=act.axis, namespace=namespace))
+    names = [n for n in ts.channels if not n.startswith(("actuator_", "balancer_"))]
+    streams.append(T.labelled_array("plant/observables", t, ["time_s"] + names,
+                                    np.column_stack([t] + [ts[n] for n in names]), namespace))
+    corr = [f"balancer_{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
+    if all(c in ts.channels for c in corr):
+        labels = ["time_s"] + [c[len("balancer_"):] for c in corr]
+        streams.append(T.labelled_array("balancer/command", t, labels,
+                                        np.column_stack([t] + [ts[c] for c in corr]), namespace))
+    write_bag(path, streams, scenario.run_config())
+    return Path(path)

@@ -1,0 +1,199 @@
+"""The in-process lockstep loop: plant + per-foot controllers (+ balancer), DESIGN.md section 3.
+
+At sample ``k``: the plant's measurement ``y_k`` (from ``x_k`` and ``u_{k-1}``) goes to every
+controller, which answers with ``u_k`` (:func:`controller_forces`); the balancer, when present,
+sees the same sample and may set a new correction (:func:`balancer_update`); the plant holds
+``u_k`` over ``[t_k, t_k+1)`` and advances. This is the reference the ROS graph reproduces:
+the plant node calls the same :class:`~rotor_avc.sim.stepper.PlantStepper`, each foot node the
+same controller block, and :func:`forces_from_answers` puts their answers in plant order.
+
+Controller blocks follow :class:`rotor_avc.control.block.DigitalController`: ``feedback``
+(``displacement``/``velocity``/``acceleration``), ``reset()``, ``step(signal) -> force_n``.
+A balancer block has ``reset()`` and ``step(sample: LoopSample)`` returning the correction
+amplitude per excitation name (``{"static": u_e, "moment": u_alpha}``, replacing the previous
+one), or an object carrying it as ``.corrections`` (:class:`rotor_avc.balancing.block.
+BalancerOutput`), or None to keep it; the stepper applies it from the next step on.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from typing import Mapping, Protocol
+
+import numpy as np
+
+from .. import __version__
+from ..errors import ModelError
+from .steady_state import start_in_steady_state
+from .stepper import PlantStepper
+from .timeseries import TimeSeries
+
+INITIAL_STATES = ("rest", "steady_state")
+
+
+@dataclass(frozen=True)
+class LoopSample:
+    """What a balancer sees at sample ``k``: time ``t`` (s), shaft ``angle`` (rad), ``speed``
+    (rad/s), ``accel`` (rad/s^2) and the measurement vector ``signals`` (names in ``names``)."""
+
+    k: int
+    t: float
+    angle: float
+    speed: float
+    accel: float
+    signals: np.ndarray
+    names: tuple[str, ...]
+
+
+class BalancerBlock(Protocol):
+    def reset(self) -> None: ...
+
+    def step(self, sample: LoopSample): ...
+
+
+# -- per-step logic (shared with the ROS nodes) ---------------------------------------------------
+def control_plan(stepper: PlantStepper, controllers: Mapping) -> list[tuple[int, object, int]]:
+    """``(position in the force vector, controller, index of its signal in y)`` per controller."""
+    ids = [a.id for a in stepper.plant.actuators]
+    plan = []
+    for act_id, ctrl in controllers.items():
+        if act_id not in ids:
+            raise ModelError(f"controller for {act_id!r}, but the plant's actuators are "
+                             + (", ".join(ids) or "none"))
+        if abs(ctrl.sample_period_s - stepper.T) > 1e-12 * stepper.T:
+            raise ModelError(f"controller {act_id} runs at {1 / ctrl.sample_period_s:g} Hz but "
+                             f"the plant is sampled at {1 / stepper.T:g} Hz; lockstep needs one "
+                             "rate")
+        plan.append((ids.index(act_id), ctrl, stepper.layout.feedback_index(act_id, ctrl.feedback)))
+    return plan
+
+
+def controller_forces(plan, y: np.ndarray, forces: np.ndarray) -> np.ndarray:
+    """Step every controller on its signal in ``y_k``; write ``u_k`` into ``forces``."""
+    item = y.item
+    for pos, ctrl, idx in plan:
+        forces[pos] = ctrl.step(item(idx))
+    return forces
+
+
+def forces_from_answers(stepper: PlantStepper, answers: Mapping[str, float]) -> np.ndarray:
+    """Force vector in plant actuator order from ``{actuator_id: force_n}`` (others zero)."""
+    ids = [a.id for a in stepper.plant.actuators]
+    forces = np.zeros(len(ids))
+    for act_id, value in answers.items():
+        if act_id not in ids:
+            raise ModelError(f"a force for {act_id!r}, but the plant's actuators are "
+                             + (", ".join(ids) or "none"))
+        forces[ids.index(act_id)] = value
+    return forces
+
+
+def balancer_update(stepper: PlantStepper, balancer, k: int, y: np.ndarray) -> None:
+    """Give the balancer sample ``k``; apply its correction from the next step on."""
+    speed, accel, angle = stepper.speed_state()
+    sample = LoopSample(k=k, t=stepper.time_s, angle=angle, speed=speed, accel=accel,
+                        signals=y.copy(), names=tuple(stepper.layout.names))
+    out = balancer.step(sample)
+    corr = getattr(out, "corrections", out)
+    if corr is not None:
+        stepper.set_correction(corr)
+
+
+def start(stepper: PlantStepper, controllers: Mapping, initial_state: str = "rest",
+          balancer=None) -> np.ndarray:
+    """Reset every block; the plant at rest or on the loop's periodic steady state. -> ``y_0``"""
+    if initial_state not in INITIAL_STATES:
+        raise ModelError(f"unknown initial state {initial_state!r}; use one of {INITIAL_STATES}")
+    if balancer is not None:
+        balancer.reset()
+    stepper.set_correction({})
+    if initial_state == "steady_state":
+        return start_in_steady_state(stepper, dict(controllers))
+    for ctrl in controllers.values():
+        ctrl.reset()
+    return stepper.reset().copy()
+
+
+# -- the run -------------------------------------------------------------------------------------
+class Progress:
+    """A one-line progress bar on stderr (only when enabled)."""
+
+    def __init__(self, total: int, sample_period_s: float, enabled: bool):
+        self.total, self.T, self.enabled = total, sample_period_s, enabled
+        self.t0 = time.perf_counter()
+
+    def update(self, k: int, final: bool = False) -> None:
+        if not self.enabled:
+            return
+        wall = time.perf_counter() - self.t0
+        frac = k / max(self.total, 1)
+        bar = "#" * int(30 * frac)
+        rtf = k * self.T / wall if wall > 0 else 0.0
+        sys.stderr.write(f"\r[{bar:<30}] {100 * frac:5.1f} %  t = {k * self.T:8.3f} s  "
+                         f"{rtf:6.1f}x real time")
+        if final:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
+             balancer: BalancerBlock | None = None, initial_state: str = "rest",
+             progress: bool | None = None,
+             metadata: dict | None = None) -> TimeSeries:
+    """Run ``n_steps`` samples of the lockstep loop from ``t = 0``; return the time series.
+
+    ``progress``: True/False, or None for "when stderr is a terminal and the run is long"."""
+    if not isinstance(n_steps, int) or n_steps < 1:
+        raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
+    plan = control_plan(stepper, controllers)
+    if progress is None:
+        progress = sys.stderr.isatty() and n_steps >= 50_000
+    bar = Progress(n_steps, stepper.T, progress)
+    y = start(stepper, controllers, initial_state, balancer)
+    Y = np.empty((n_steps, y.size))
+    U = np.empty((n_steps, stepper.n_inputs))
+    C = np.zeros((n_steps, len(stepper.plant.excitations)), complex) if balancer else None
+    u = np.zeros(stepper.n_inputs)
+    step = stepper.step
+    for k in range(n_steps):
+        Y[k] = y
+        controller_forces(plan, y, u)
+        U[k] = u
+        if balancer is not None:
+            balancer_update(stepper, balancer, k, y)
+            C[k] = list(stepper.correction.values())
+        y = step(u)
+        if not k & 0x3FFF:
+            bar.update(k)
+    bar.update(n_steps, final=True)
+    return timeseries_from_run(stepper, Y, U, C, metadata or {}, initial_state, controllers)
+
+
+def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) -> TimeSeries:
+    """The recorded measurements ``Y``, forces ``U`` and corrections ``C`` as a time series."""
+    n = Y.shape[0]
+    t = np.arange(n) * stepper.T
+    speed, accel, angle = stepper.profile.sample(t)
+    lay = stepper.layout
+    channels = {name: Y[:, i].copy() for i, name in enumerate(lay.names)}
+    units = dict(lay.units)
+    ids = [a.id for a in stepper.plant.actuators]
+    for act_id, axis in stepper.plant.force_points:
+        name = f"actuator_{act_id}_f{axis}"
+        channels[name] = U[:, ids.index(act_id)].copy() if act_id in ids else np.zeros(n)
+        units[name] = "N"
+    if C is not None:
+        for j, exc in enumerate(stepper.plant.excitations):
+            for part, values in (("re", C[:, j].real), ("im", C[:, j].imag)):
+                channels[f"balancer_{exc.name}_{part}"] = values.copy()
+                units[f"balancer_{exc.name}_{part}"] = exc.unit
+    meta = {"software": f"rotor_avc {__version__}", "plant": stepper.plant.name,
+            "sample_period_s": stepper.T, "damping": stepper.damping.describe(),
+            "initial_state": initial_state,
+            "amplitudes": {k: [v.real, v.imag] for k, v in stepper.amplitudes.items()},
+            "controllers": {k: getattr(c, "describe", lambda: repr(c))()
+                            for k, c in controllers.items()},
+            "speed_nodes": int(stepper.table.nodes.size)}
+    meta.update(metadata)
+    return TimeSeries(t, speed, accel, angle, channels, units, meta)

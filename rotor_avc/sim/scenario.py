@@ -1,0 +1,173 @@
+"""Simulation scenarios: a machine config plus a ``simulation:`` section, validated, and run.
+
+A scenario file includes a machine config (``include: foot_mount_case3.yaml``) and adds::
+
+    simulation:
+      sample_rate_hz: 5000.0        # plant and controllers in lockstep (default: control rate)
+      duration_s: 2.0               # default: the speed profile's length
+      speed: {type: constant, speed_hz: 20.0}      # rotor_avc.sim.speed_profile
+      unbalance:                    # complex amplitude per excitation of the plant
+        static: {magnitude: 1.0e-3, phase_deg: 0.0}     # in the excitation's unit (kg m)
+        moment: {magnitude: 2.0e-4, phase_deg: 90.0}    # (kg m^2)
+      damping_at: speed             # speed: w_F = max(Omega, floor); whirl: frozen at whirl_rad_s
+      initial_state: steady_state   # rest | steady_state (the sampled loop's periodic solution)
+      speed_grid_tol: 1.0e-5        # rotor_avc.sim.propagator (accuracy of variable speed)
+
+Checks (each a :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
+duration; a sample rate above twice the highest rotational frequency and above twice the
+highest of the machine's relevant modes (the first ``analysis.worst_case.n_modes``, default 6,
+undamped natural frequencies at standstill, the modes its controllers act on); speeds within
+``[0, analysis.frf_speed_hz.stop]``, the range the machine config sets the model up for.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ..control.block import DEFAULT_SAMPLE_RATE_HZ, build_digital_controllers
+from ..errors import ModelError
+from ..machine import Machine, load_machine
+from .loop import INITIAL_STATES, run_loop
+from .propagator import DAMPING_RULES, DampingRule
+from .speed_profile import SpeedProfile, profile_from_config
+from .stepper import DEFAULT_GRID_TOL, PlantStepper
+from .timeseries import TimeSeries
+
+SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at",
+                   "whirl_rad_s", "initial_state", "speed_grid_tol")
+DEFAULT_RELEVANT_MODES = 6
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    machine: Machine
+    sample_period_s: float
+    duration_s: float
+    profile: SpeedProfile
+    amplitudes: dict[str, complex]
+    damping: DampingRule
+    initial_state: str
+    grid_tol: float
+
+    @property
+    def n_steps(self) -> int:
+        return max(1, int(round(self.duration_s / self.sample_period_s)))
+
+    def stepper(self) -> PlantStepper:
+        return PlantStepper(self.machine.plant, self.sample_period_s, self.profile,
+                            self.amplitudes, self.damping, self.grid_tol)
+
+    def controllers(self) -> dict:
+        return build_digital_controllers(self.machine, self.sample_period_s)
+
+    def run_config(self) -> dict:
+        """The run's configuration as a bag records it (rotor_avc.bag.metadata): the whole
+        merged config under ``machine`` plus the sections a reader looks for."""
+        data = self.machine.config.data
+        sim = data.get("simulation", {})
+        return {"machine": data, "source": self.machine.config.source,
+                "controllers": data.get("controllers"),
+                "discretisation": {**data.get("control", {}),
+                                   "sample_rate_hz": 1.0 / self.sample_period_s},
+                "balancer": data.get("balancer"), "speed_profile": sim.get("speed"),
+                "unbalance": sim.get("unbalance"), "damping": self.damping.describe(),
+                "initial_state": self.initial_state}
+
+    def run(self, progress: bool | None = None, balancer=None) -> TimeSeries:
+        meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
+        return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
+                        initial_state=self.initial_state, progress=progress, metadata=meta)
+
+
+def relevant_mode_hz(machine: Machine) -> float:
+    """Highest of the first ``n_modes`` undamped natural frequencies at standstill (Hz)."""
+    p = machine.plant
+    n_modes = machine.analysis.section("worst_case", {}).integer("n_modes", DEFAULT_RELEVANT_MODES,
+                                                                 minimum=1)
+    w2 = scipy.linalg.eigh(p.stiffness, p.mass, eigvals_only=True)
+    w = np.sqrt(np.clip(w2, 0.0, None))
+    w = w[w > 1e-6 * max(w.max(), 1.0)]                  # rigid-body modes have no frequency
+    return float(w[:n_modes].max() / (2 * math.pi)) if w.size else 0.0
+
+
+def _amplitudes(machine: Machine, sec) -> dict[str, complex]:
+    names = [e.name for e in machine.plant.excitations]
+    units = {e.name: e.unit for e in machine.plant.excitations}
+    sec.check_keys(names)
+    out = {}
+    for name in sec.keys():
+        item = sec.section(name)
+        item.check_keys(("magnitude", "phase_deg"))
+        mag = item.number("magnitude", nonnegative=True, unit=units[name])
+        phase = item.number("phase_deg", 0.0)
+        out[name] = mag * complex(math.cos(math.radians(phase)), math.sin(math.radians(phase)))
+    return out
+
+
+def scenario_from_machine(machine: Machine) -> Scenario:
+    """Validate the ``simulation:`` section of a loaded machine config."""
+    cfg = machine.config
+    sim = cfg.section("simulation")
+    sim.check_keys(SIMULATION_KEYS)
+    control = cfg.section("control", {})
+    if sim.has("sample_rate_hz"):
+        fs = sim.number("sample_rate_hz", positive=True, unit="Hz")
+        if control.has("sample_rate_hz") and control.number("sample_rate_hz") != fs:
+            raise sim.error("sample_rate_hz", f"{fs:g} Hz differs from control.sample_rate_hz "
+                            f"{control.number('sample_rate_hz'):g} Hz; plant and controllers "
+                            "run in lockstep at one rate", fix="give one rate (or drop one key)")
+    else:
+        fs = control.number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ, positive=True, unit="Hz")
+    try:
+        profile = profile_from_config(sim.section("speed"))
+    except ModelError as exc:
+        raise sim.error("speed", str(exc)) from None
+    if sim.has("duration_s"):
+        duration = sim.number("duration_s", positive=True, unit="s")
+    elif profile.length_s is not None:
+        duration = profile.length_s
+    else:
+        raise sim.error("duration_s", "missing, and the speed profile has no length of its own",
+                        fix="add `duration_s:` (seconds) to simulation")
+    if duration * fs < 1:
+        raise sim.error("duration_s", f"{duration:g} s is shorter than one sample at {fs:g} Hz",
+                        fix="give a longer duration")
+    f_max = profile.max_speed_rad_s / (2 * math.pi)
+    frf = cfg.section("analysis", {}).section("frf_speed_hz", {})
+    if frf.has("stop") and f_max > frf.number("stop") * (1 + 1e-12):
+        raise sim.error("speed", f"the profile reaches {f_max:g} Hz, beyond the model's range "
+                        f"0 .. {frf.number('stop'):g} Hz (analysis.frf_speed_hz.stop)",
+                        fix="lower the speeds, or extend analysis.frf_speed_hz.stop if the "
+                            "model holds there")
+    if fs <= 2 * f_max:
+        raise sim.error("sample_rate_hz", f"{fs:g} Hz is not above twice the highest rotational "
+                        f"frequency {f_max:g} Hz (the 1x signal would alias)",
+                        fix=f"raise the sample rate above {2 * f_max:g} Hz (10x is comfortable)")
+    f_mode = relevant_mode_hz(machine)
+    if fs <= 2 * f_mode:
+        raise sim.error("sample_rate_hz", f"{fs:g} Hz is not above twice the machine's highest "
+                        f"relevant mode {f_mode:.1f} Hz (analysis.worst_case.n_modes)",
+                        fix=f"raise the sample rate above {2 * f_mode:.0f} Hz")
+    kind = sim.choice("damping_at", DAMPING_RULES, default="speed")
+    if kind == "whirl":
+        damping = DampingRule("whirl", sim.number("whirl_rad_s", positive=True, unit="rad/s"))
+    elif sim.has("whirl_rad_s"):
+        raise sim.error("whirl_rad_s", "only used with `damping_at: whirl`",
+                        fix="drop whirl_rad_s or set damping_at: whirl")
+    else:
+        damping = DampingRule("speed")
+    initial = sim.choice("initial_state", INITIAL_STATES, default="rest")
+    if initial == "steady_state" and profile.sample(np.array(0.0))[0] <= 0:
+        raise sim.error("initial_state", "a steady state needs the shaft turning at t = 0",
+                        fix="start the speed profile above 0 Hz or use `initial_state: rest`")
+    return Scenario(machine, 1.0 / fs, duration, profile,
+                    _amplitudes(machine, sim.section("unbalance", {})), damping, initial,
+                    sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1))
+
+
+def load_scenario(name) -> Scenario:
+    """Load a scenario file (a path or a shipped config name)."""
+    return scenario_from_machine(load_machine(name))
