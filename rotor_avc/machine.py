@@ -14,6 +14,7 @@ from .models.plant import LinearPlant
 MODELS = {
     "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
     "active_bearing": "rotor_avc.models.active_bearing",
+    "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
 }
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``

@@ -19,6 +19,7 @@ import scipy.linalg
 
 from ..errors import ModelError
 from .closed_loop import ClosedLoop
+from .whirl_iteration import whirl_iteration_poles
 
 
 @dataclass
@@ -112,6 +113,7 @@ def _worst_case_from_config(machine, speed_rad_s: float) -> PoleResult:
 #: names the damping procedure of its paper (seed 000: Figure 4's worst case).
 POLE_METHODS = {
     "worst_case": _worst_case_from_config,
+    "whirl_iteration": whirl_iteration_poles,    # seed 001 (rotor_avc.analysis.whirl_iteration)
 }
 
 
