@@ -12,7 +12,7 @@ import sys
 
 from ..errors import RotorAvcError
 
-COMMANDS = ["poles", "frf", "demo", "active-bearing", "controller", "simulate", "study"]
+COMMANDS = ["poles", "frf", "demo", "active-bearing", "controller", "simulate", "study", "stability"]
 
 
 def build_parser() -> argparse.ArgumentParser:
