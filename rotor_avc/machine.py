@@ -16,6 +16,7 @@ MODELS = {
     "active_bearing": "rotor_avc.models.active_bearing",
     "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
     "roller_bearing_rotor": "rotor_avc.models.roller_bearing_rotor",
+    "rigid_rotor": "rotor_avc.models.rigid_rotor",
 }
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``

@@ -12,7 +12,7 @@ import sys
 
 from ..errors import RotorAvcError
 
-COMMANDS = ["poles", "frf", "demo", "active-bearing", "controller", "simulate", "study", "stability"]
+COMMANDS = ["poles", "frf", "demo", "active-bearing", "controller", "simulate", "study", "stability", "balance"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,124 @@
+"""Seed 004 (Zhou & Shi 2001): rigid rotor on two isotropic bearings, spin axis Y.
+
+Generalised coordinates ``q = [R_X, R_Z, theta, psi]`` (paper eq. 1): translations of the mass
+centre and the two tilt angles. The bearings sit at ``y = +-L/2`` (digest 2: the conical
+stiffness ``k L^2 / 2 = 2 k (L/2)^2``), each with stiffness ``k`` and viscous damping ``c``::
+
+    M = diag(m, m, I_t, I_t),  C = diag(2k, 2k, k L^2/2, k L^2/2),  D_v = diag(2c, 2c, c L^2/2, ...)
+    G1[theta, psi] = -I_p, G1[psi, theta] = +I_p      (the I_p phi' terms of A(t), eq. 1)
+
+The shaft is a solid cylinder (digest 9 item 1): ``m = rho pi r^2 L``, ``I_t = m (3 r^2 + L^2) / 12``,
+``I_p = m r^2 / 2``. ``rotor.gyroscopic: false`` (the paper's analysis) drops G1. The ``I_p phi''`` coupling of A(t) is a stiffness proportional to the angular
+acceleration; a LinearPlant cannot carry it, so only the run-up simulator
+(:mod:`rotor_avc.balancing.rigid_runup`) has it. The paper drops both gyroscopic terms.
+
+Excitations in the LinearPlant convention ``Re{(Omega^2 - j Omega') p2 u e^{j phi}}``: a point
+mass ``m_u`` at body coordinates ``(u_x, u_y, u_z)`` gives (from the B matrix of eq. 1, with
+``f1 = Re{(Omega^2 - j Omega')j e^{j phi}}`` and ``f2 = Re{(Omega^2 - j Omega') e^{j phi}}``)::
+
+    static  u = m_u (u_x - j u_z)       [kg m],    p2 = [1, j, 0, 0]
+    moment  u = m_u u_y (u_x - j u_z)   [kg m^2],  p2 = [0, 0, j, -1]
+
+The complex amplitude is the conjugate of the paper's ``a + i b`` form because the rotor turns
+from +Z towards +X (clockwise in the X-Z plane) while the LinearPlant phasor turns forwards.
+A point on the axis at ``y`` moves by ``X = R_X - y psi``, ``Z = R_Z + y theta`` (digest 2).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import Section
+from .plant import Excitation, LinearPlant, Output
+
+COORDS = ("R_X", "R_Z", "theta", "psi")
+#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
+MODEL_KEYS = ("rotor", "bearings", "output")
+
+
+@dataclass(frozen=True)
+class RigidRotor:
+    """The paper's rotor: shaft mass and inertias, bearings, output point (SI units)."""
+
+    mass_kg: float
+    I_t: float                  # diametral moment of inertia [kg m^2]
+    I_p: float                  # polar moment of inertia [kg m^2]
+    length_m: float
+    stiffness_n_per_m: float    # per bearing
+    damping_n_s_per_m: float    # per bearing
+    output_axial_m: float       # l_s: axial position of the output point on the spin axis
+    gyroscopic: bool = False    # keep the I_p terms of A(t) (the paper's analysis drops them)
+
+    @property
+    def omega_n(self) -> np.ndarray:
+        """Undamped natural frequencies [rad/s] of the translational and conical mode."""
+        k, L = self.stiffness_n_per_m, self.length_m
+        return np.sqrt([2 * k / self.mass_kg, k * L**2 / (2 * self.I_t)])
+
+    @property
+    def zeta(self) -> np.ndarray:
+        """Damping ratios of the two modes (``2 zeta w_n = 2c/m`` and ``c L^2 / 2 I_t``)."""
+        c, L = self.damping_n_s_per_m, self.length_m
+        two_zeta_w = np.array([2 * c / self.mass_kg, c * L**2 / (2 * self.I_t)])
+        return two_zeta_w / (2 * self.omega_n)
+
+    @property
+    def modal_mass(self) -> np.ndarray:
+        """``(m, I_t)``: divides the modal force of each mode."""
+        return np.array([self.mass_kg, self.I_t])
+
+    def d_coefficient(self, axial_m: float) -> float:
+        """``d = m w_y / I_t`` of paper eq. (9) for a plane at ``w_y`` [1/m]."""
+        return self.mass_kg * axial_m / self.I_t
+
+
+def rotor_from_config(cfg: Section) -> RigidRotor:
+    """Read ``rotor``, ``bearings`` and ``output`` of a ``model: rigid_rotor`` config."""
+    rot = cfg.section("rotor")
+    rot.check_keys(("length_m", "radius_m", "density_kg_m3", "gyroscopic"))
+    L = rot.number("length_m", positive=True, unit="m")
+    r = rot.number("radius_m", positive=True, unit="m")
+    rho = rot.number("density_kg_m3", positive=True, unit="kg/m^3")
+    gyro = rot.raw("gyroscopic", False)
+    if not isinstance(gyro, bool):
+        raise rot.error("gyroscopic", f"must be true or false (got {gyro!r})")
+    brg = cfg.section("bearings")
+    brg.check_keys(("stiffness_n_per_m", "damping_n_s_per_m"))
+    k = brg.number("stiffness_n_per_m", positive=True, unit="N/m")
+    c = brg.number("damping_n_s_per_m", nonnegative=True, unit="N s/m")
+    out = cfg.section("output")
+    out.check_keys(("axial_position_m",))
+    l_s = out.number("axial_position_m", unit="m")
+    m = rho * np.pi * r**2 * L
+    return RigidRotor(mass_kg=m, I_t=m * (3 * r**2 + L**2) / 12, I_p=m * r**2 / 2, length_m=L,
+                      stiffness_n_per_m=k, damping_n_s_per_m=c, output_axial_m=l_s,
+                      gyroscopic=gyro)
+
+
+def axis_point_row(axial_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``X`` and ``Z`` of the spin-axis point at ``y = axial_m`` (digest 2)."""
+    return np.array([1.0, 0, 0, -axial_m]), np.array([0, 1.0, axial_m, 0])
+
+
+def build(cfg: Section) -> LinearPlant:
+    """The seed-004 rotor as a LinearPlant (see the module docstring)."""
+    rot = rotor_from_config(cfg)
+    k, c, L = rot.stiffness_n_per_m, rot.damping_n_s_per_m, rot.length_m
+    M = np.diag([rot.mass_kg, rot.mass_kg, rot.I_t, rot.I_t])
+    C = np.diag([2 * k, 2 * k, k * L**2 / 2, k * L**2 / 2])
+    D_v = np.diag([2 * c, 2 * c, c * L**2 / 2, c * L**2 / 2])
+    G1 = np.zeros((4, 4))
+    if rot.gyroscopic:
+        G1[2, 3], G1[3, 2] = -rot.I_p, rot.I_p
+    outputs = []
+    for name, y in (("output", rot.output_axial_m), ("bearing_A", -L / 2), ("bearing_B", L / 2)):
+        row_x, row_z = axis_point_row(y)
+        outputs += [Output(f"{name}_x", row_x, 0, "m"), Output(f"{name}_z", row_z, 0, "m")]
+    return LinearPlant(
+        name=cfg.string("name", "rigid_rotor"), coords=COORDS, mass=M, stiffness=C,
+        loss_damping=np.zeros((4, 4)), viscous_damping=D_v, gyroscopic=G1,
+        circulatory=np.zeros((4, 4)), actuators=(),
+        excitations=(Excitation("static", "kg*m", np.array([1.0, 1j, 0, 0])),
+                     Excitation("moment", "kg*m^2", np.array([0, 0, 1j, -1.0]))),
+        outputs=tuple(outputs), damping_floor_rad_s=1.0, config=cfg.data)
