@@ -13,10 +13,10 @@ from .models.plant import LinearPlant
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
     "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
-    "active_bearing": "rotor_avc.models.active_bearing",
-    "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
     "roller_bearing_rotor": "rotor_avc.models.roller_bearing_rotor",
+    "active_bearing": "rotor_avc.models.active_bearing",
     "rigid_rotor": "rotor_avc.models.rigid_rotor",
+    "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
 }
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``

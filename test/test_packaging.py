@@ -62,9 +62,15 @@ def test_pip_install_finds_installed_config(tmp_path):
                           capture_output=True, text=True, check=True).stdout.strip()
     # dependencies come from this interpreter's site-packages (no network, no nested .pth hooks)
     Path(site, "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
-    r = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
-                        "--no-build-isolation", "--prefix", str(venv), str(ROOT)],
+    # build the wheel with this interpreter (nothing is installed here), install it in the venv
+    wheels = tmp_path / "wheels"
+    r = subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps",
+                        "--no-build-isolation", "-w", str(wheels), str(ROOT)],
                        capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    wheel = next(wheels.glob("rotor_avc-*.whl"))
+    r = subprocess.run([str(py), "-m", "pip", "install", "--quiet", "--no-deps", "--no-index",
+                        str(wheel)], capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert (venv / "share" / "rotor_avc" / "config" / "foot_mount_case3.yaml").is_file()
     assert (venv / "share" / "rotor_avc" / "package.xml").is_file()
@@ -76,6 +82,6 @@ def test_pip_install_finds_installed_config(tmp_path):
     module_file, found = r.stdout.split()
     assert str(venv) in module_file
     assert Path(found) == venv / "share" / "rotor_avc" / "config" / "foot_mount_case3.yaml"
-    r = subprocess.run([str(py), str(venv / "bin" / "rotor-avc"), "poles", "foot_mount_case1", "--json"],
+    r = subprocess.run([str(venv / "bin" / "rotor-avc"), "poles", "foot_mount_case1", "--json"],
                        capture_output=True, text=True, cwd=tmp_path, env=env)
     assert r.returncode == 0, r.stderr

@@ -12,7 +12,11 @@ import sys
 
 from ..errors import RotorAvcError
 
-COMMANDS = ["poles", "frf", "demo", "active-bearing", "controller", "simulate", "study", "stability", "balance"]
+COMMANDS = [
+    "poles", "frf", "controller", "simulate",                # any machine
+    "stability", "study", "active-bearing", "balance",       # paper-specific studies
+    "demo",                                                  # the main job
+]
 
 
 def build_parser() -> argparse.ArgumentParser:
