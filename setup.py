@@ -5,7 +5,7 @@ from setuptools import find_packages, setup
 
 package_name = "rotor_avc"
 
-NODES: list[str] = []  # grows as the ROS adapters land (rotor_avc/nodes)
+NODES = ["plant_simulator", "foot_controller", "balancer", "recorder"]   # rotor_avc/nodes
 
 setup(
     name=package_name,

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..control.block import DigitalController, build_digital_controllers
+from ..control.block import DEFAULT_SAMPLE_RATE_HZ, DigitalController, build_digital_controllers
 from ..control.discretize import DiscreteTf
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ModelError
@@ -129,24 +129,31 @@ class SampledLoop:
     plant: LinearPlant
     controllers: dict[str, DiscreteTf]
     delay_samples: dict[str, int]
+    #: the sample period when no controller gives it (all loops open: the exact sampled plant)
+    period_s: float | None = None
 
     def __post_init__(self):
-        if not self.controllers:
-            raise ModelError("the sampled loop needs at least one controller (all loops open)")
         periods = {tf.sample_period_s for tf in self.controllers.values()}
+        if self.period_s is not None:
+            periods.add(self.period_s)
         if len(periods) != 1:
-            raise ModelError(f"all controllers must share one sample period (got {sorted(periods)})")
+            raise ModelError("all controllers must share one sample period, and a loop without "
+                             f"controllers needs one given (got {sorted(periods)})")
         for act_id in self.controllers:
             self.plant.actuator(act_id)
 
     @classmethod
-    def from_blocks(cls, plant: LinearPlant, blocks: dict[str, DigitalController]) -> "SampledLoop":
+    def from_blocks(cls, plant: LinearPlant, blocks: dict[str, DigitalController],
+                    sample_period_s: float | None = None) -> "SampledLoop":
         """The loop the blocks run (their current gain factor and delays included)."""
         return cls(plant, {k: b.tf.scaled(b.gain) for k, b in blocks.items()},
-                   {k: b.delay_samples for k, b in blocks.items()})
+                   {k: b.delay_samples for k, b in blocks.items()},
+                   None if blocks else sample_period_s)
 
     @property
     def sample_period_s(self) -> float:
+        if self.period_s is not None:
+            return self.period_s
         return next(iter(self.controllers.values())).sample_period_s
 
     # -- assembly ----------------------------------------------------------------------------
@@ -177,7 +184,7 @@ class SampledLoop:
         ids = list(self.controllers)
         m = len(ids)
         acts = [p.actuator(i) for i in ids]
-        Pc = np.array([a.force_vector for a in acts]).T                   # (n, m)
+        Pc = np.array([a.force_vector for a in acts]).reshape(m, n).T    # (n, m)
         cols = [p.actuators.index(a) for a in acts]
         Gu = dp.Gamma_u[:, cols]
         F = np.array([e.phasor(speed_rad_s) for e in p.excitations]).reshape(-1, n).T  # (n, ne)
@@ -266,7 +273,7 @@ class SampledLoop:
             zk = np.exp(1j * speed * T)
             X = np.linalg.solve(zk * np.eye(Nt) - asm.A, asm.Be[:, cols])
             F = np.array([p.excitations[c].phasor(speed) for c in cols]).reshape(-1, p.n).T
-            Pc = np.array([p.actuator(i).force_vector for i in ids]).T
+            Pc = np.array([p.actuator(i).force_vector for i in ids]).reshape(len(ids), p.n).T
             for j, (row, order) in enumerate(zip(rows, orders)):
                 yX, ye = self._measurement(row, order, asm.dp, Pc, F, Nt)
                 resp[k, j] = yX @ X + ye
@@ -330,8 +337,14 @@ class SampledLoop:
 
 
 def machine_sampled_loop(machine, sample_period_s: float | None = None) -> SampledLoop:
-    """The sampled loop of a configured machine (its ``control:`` settings unless ``T`` given)."""
-    return SampledLoop.from_blocks(machine.plant, build_digital_controllers(machine, sample_period_s))
+    """The sampled loop of a configured machine (its ``control:`` settings unless ``T`` given);
+    with its loops open, the exact sampled plant at ``T`` (default: the control rate)."""
+    blocks = build_digital_controllers(machine, sample_period_s)
+    if not blocks and sample_period_s is None:
+        rate = machine.config.section("control", {}).number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ,
+                                                            positive=True, unit="Hz")
+        sample_period_s = 1.0 / rate
+    return SampledLoop.from_blocks(machine.plant, blocks, sample_period_s)
 
 
 def gain_ranges(machine, sample_rates_hz, speed_rad_s: float, w_F: float, **search) -> list[GainRange]:

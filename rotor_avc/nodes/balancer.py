@@ -1,0 +1,151 @@
+"""``balancer``: the one-plane active balancer (RLS estimate + switching law) as a ROS node.
+
+Run: ``ros2 run rotor_avc balancer --ros-args -p scenario:=scenario_balance_runup`` with the plant
+started with ``-p balancer:=true`` (lockstep: the plant waits for the balancer at every sample).
+
+A thin adapter over :class:`rotor_avc.balancing.loop_block.LoopBalancer` (the block the
+in-process loop runs): it pairs ``rotor/joint_state`` (shaft angle, speed) and
+``plant/observables`` (the measurement vector) of the same sample by their sample time, steps the
+block, and publishes
+
+* ``balancer/command`` -- the correction its plane applies, labelled ``time_s,
+  static_re, static_im, moment_re, moment_im`` (kg m, kg m^2), stamped by ``time_s``;
+* ``balancer/estimate`` -- the estimated unbalance in the same layout.
+
+A repeated sample (the plant resending) is answered from the cache without stepping twice.
+"""
+from __future__ import annotations
+
+import math
+
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from ..balancing.loop_block import LoopBalancer
+from ..balancing.scenario import machine_setup
+from ..errors import RotorAvcError
+from ..sim.loop import LoopSample
+from ..sim.scenario import load_scenario
+from . import messages as m
+from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .timing import LoopTiming
+
+PARAMS = COMMON_PARAMS + (
+    Param("scenario", "", "scenario config with a `balancer:` section"),
+    Param("namespace", m.NAMESPACE, "topic namespace of the machine"),
+)
+
+
+class Balancer(Node):
+    """The balancer node (see the module docstring)."""
+
+    def __init__(self, name: str = "balancer", **kwargs):
+        super().__init__(name, **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        self.executor_kind = self.p["executor"]
+        if not self.p["scenario"]:
+            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give "
+                                "a scenario with a `balancer:` section")
+        sc = load_scenario(self.p["scenario"])
+        if "balancer" not in sc.machine.config.data:
+            raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
+                                "`balancer:` section -- fix: use a balancer scenario")
+        self.block = LoopBalancer(machine_setup(sc.machine), sc.sample_period_s)
+        self.excitations = [e.name for e in sc.machine.plant.excitations]
+        labels = ["time_s"] + [f"{e}_{part}" for e in self.excitations for part in ("re", "im")]
+        self.command = m.Labelled(labels)
+        self.estimate = m.Labelled(labels)
+        ns = self.p["namespace"]
+        self.pub_cmd = self.create_publisher(Float64MultiArray, m.topic("balancer/command", ns),
+                                             m.LOCKSTEP_QOS)
+        self.pub_est = self.create_publisher(Float64MultiArray, m.topic("balancer/estimate", ns),
+                                             m.LOCKSTEP_QOS)
+        self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
+                                 m.LOCKSTEP_QOS)
+        self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
+                                 self._on_observables, m.LOCKSTEP_QOS)
+        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self.timing = LoopTiming(None)
+        self.joints: dict[int, tuple[float, float]] = {}
+        self.values: dict[int, tuple[float, list[str], list[float]]] = {}
+        self.last_stamp = -1
+        self.k = 0
+        self.last_answer: list[float] | None = None
+        self.faults = 0
+        self.last_fault = ""
+
+    def _on_joint(self, msg: JointState) -> None:
+        if len(msg.position) < 1 or len(msg.velocity) < 1:
+            self._fault("rotor/joint_state without position/velocity")
+            return
+        stamp = m.stamp_ns(msg.header.stamp)
+        self.joints[stamp] = (msg.position[0], msg.velocity[0])
+        self._try(stamp)
+
+    def _on_observables(self, msg: Float64MultiArray) -> None:
+        names = m.labels(msg)
+        if names[:1] != ["time_s"]:
+            self._fault("plant/observables without the leading time_s element")
+            return
+        stamp = m.time_to_ns(msg.data[0])
+        self.values[stamp] = (msg.data[0], names[1:], list(msg.data[1:]))
+        self._try(stamp)
+
+    def _try(self, stamp: int) -> None:
+        if stamp not in self.joints or stamp not in self.values:
+            return
+        angle, speed = self.joints.pop(stamp)
+        t_s, names, values = self.values.pop(stamp)          # t_s = k T exactly as the plant has it
+        if stamp == self.last_stamp and self.last_answer is not None:
+            self._publish(self.last_answer, None)          # the plant resent this sample
+            return
+        if stamp < self.last_stamp:
+            self._fault(f"stale sample {stamp} ns after {self.last_stamp} ns: ignored")
+            return
+        if not all(math.isfinite(v) for v in values) or not math.isfinite(speed):
+            self._fault(f"non-finite measurement at {stamp} ns: correction held")
+            corr = self.block.correction
+        else:
+            self.timing.start()
+            corr = self.block.step(LoopSample(self.k, t_s, angle, speed, 0.0, values, tuple(names)))
+            self.timing.stop()
+            self.k += 1
+        self.last_stamp = stamp
+        answer = [t_s] + [x for e in self.excitations for x in (corr[e].real, corr[e].imag)]
+        est = self.block.estimate()
+        self.last_answer = answer
+        self._publish(answer, [t_s] + [x for e in self.excitations
+                                       for x in (est[e].real, est[e].imag)])
+        for old in [s for s in self.joints if s < stamp]:
+            del self.joints[old]
+        for old in [s for s in self.values if s < stamp]:
+            del self.values[old]
+
+    def _publish(self, command, estimate) -> None:
+        self.pub_cmd.publish(self.command.fill(command))
+        if estimate is not None:
+            self.pub_est.publish(self.estimate.fill(estimate))
+
+    def _fault(self, text: str) -> None:
+        self.faults += 1
+        if text != self.last_fault:
+            self.get_logger().warning(text)
+        self.last_fault = text
+
+    def _publish_diagnostics(self) -> None:
+        stats = self.timing.summary()
+        out = self.block.last_output
+        stats.update({"faults": self.faults, "mode": out.mode if out else "estimate"})
+        level, text = ("warn", self.last_fault) if self.last_fault else ("ok", "balancing")
+        self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0),
+                                            [(f"{self.get_name()}: balancer", level, text, stats)]))
+
+
+def main(args=None) -> int:
+    return run_node(Balancer, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

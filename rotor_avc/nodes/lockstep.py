@@ -1,0 +1,108 @@
+"""The plant's side of the lockstep protocol, free of ROS (DESIGN.md section 4).
+
+The plant publishes sample ``k`` stamped ``t_k`` and steps only when every configured responder
+(each foot controller, the balancer when present) has answered ``t_k``. :class:`AnswerBook`
+keeps that bookkeeping and the fault policy:
+
+* an answer stamped ``t_k`` counts for sample ``k``; answers for other stamps are ignored
+  (a late answer only tells that its sender is alive again);
+* no answer within ``resend_after_s`` (wall clock) -> the plant publishes sample ``k`` again
+  (a message lost while the graph was still connecting); responders answer a repeated stamp from
+  their cache without stepping twice;
+* no answer within ``timeout_s`` -> the responder is marked absent: its force follows the policy
+  (``hold`` the last force it sent, or ``zero``), the plant no longer waits for it, and the fault
+  is reported; the first answer it sends again (for any stamp) marks it present, and from the
+  next sample on the plant waits for it again.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+POLICIES = ("hold", "zero")
+
+
+@dataclass
+class Responder:
+    """Bookkeeping of one responder (a foot controller or the balancer)."""
+
+    name: str
+    present: bool = True
+    last_value: object = None
+    answer: object = None               # value answered for the current stamp
+    faults: int = 0                     # times it was declared absent
+    fault_reason: str = ""
+
+
+@dataclass
+class AnswerBook:
+    """Which responders answered the current sample; what to use for those that did not."""
+
+    names: tuple[str, ...]
+    policy: str = "hold"
+    timeout_s: float = 1.0
+    resend_after_s: float = 0.25
+    responders: dict[str, Responder] = field(default_factory=dict)
+    stamp_ns: int = -1
+    started_s: float = 0.0
+    last_send_s: float = 0.0
+    resends: int = 0
+
+    def __post_init__(self):
+        if self.policy not in POLICIES:
+            raise ValueError(f"unknown fault policy {self.policy!r}; use one of {POLICIES}")
+        self.responders = {n: Responder(n) for n in self.names}
+
+    def begin(self, stamp_ns: int, now_s: float) -> None:
+        """A new sample was published."""
+        self.stamp_ns = stamp_ns
+        self.started_s = self.last_send_s = now_s
+        for r in self.responders.values():
+            r.answer = None
+
+    def receive(self, name: str, stamp_ns: int, value) -> bool:
+        """Record an answer; True when it completes the current sample."""
+        r = self.responders.get(name)
+        if r is None:
+            return False
+        if not r.present:
+            r.present = True            # alive again: wait for it from the next sample on
+            r.fault_reason = f"returned after fault (answer stamped {stamp_ns} ns)"
+            if stamp_ns != self.stamp_ns:
+                return False
+        if stamp_ns != self.stamp_ns:
+            return False
+        r.answer = value
+        r.last_value = value
+        return self.ready()
+
+    def ready(self) -> bool:
+        return all(r.answer is not None for r in self.responders.values() if r.present)
+
+    def poll(self, now_s: float) -> tuple[bool, list[str]]:
+        """``(resend, newly_absent)`` at wall time ``now_s`` while waiting for the sample."""
+        newly_absent = []
+        for r in self.responders.values():
+            if r.present and r.answer is None and now_s - self.started_s >= self.timeout_s:
+                r.present = False
+                r.faults += 1
+                r.fault_reason = (f"no answer within {self.timeout_s:g} s (sample stamped "
+                                  f"{self.stamp_ns} ns); policy: {self.policy}")
+                newly_absent.append(r.name)
+        resend = (not newly_absent and not self.ready()
+                  and now_s - self.last_send_s >= self.resend_after_s)
+        if resend:
+            self.last_send_s = now_s
+            self.resends += 1
+        return resend, newly_absent
+
+    def value(self, name: str, zero):
+        """The answer of ``name`` for this sample, or the policy's substitute."""
+        r = self.responders[name]
+        if r.answer is not None:
+            return r.answer
+        if self.policy == "hold" and r.last_value is not None:
+            return r.last_value
+        return zero
+
+    def absent(self) -> list[str]:
+        return [r.name for r in self.responders.values() if not r.present]

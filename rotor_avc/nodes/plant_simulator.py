@@ -1,0 +1,310 @@
+"""``plant_simulator``: steps a machine model and publishes its foot measurements.
+
+Run: ``ros2 run rotor_avc plant_simulator --ros-args --params-file config/ros_case3.yaml`` or
+``python -m rotor_avc.nodes.plant_simulator --ros-args -p scenario:=scenario_case3_steady``.
+
+A thin adapter over :class:`rotor_avc.sim.stepper.PlantStepper` following the sampling contract
+(DESIGN.md 3) and the in-process loop's per-step functions (rotor_avc.sim.loop), so a lockstep run
+reproduces ``rotor-avc simulate`` exactly.
+
+* **lockstep** (default): publishes sample ``k`` (foot measurements, ``rotor/joint_state``,
+  ``plant/observables``, ``/clock`` = ``t_k``) and steps when every controller of the scenario
+  (and the balancer, with ``balancer: true``) has answered ``t_k``
+  (:class:`rotor_avc.nodes.lockstep.AnswerBook`: resend, timeout, fault policy).
+* **realtime**: steps on a wall-clock timer at the sample period with the latest forces received;
+  a controller silent for longer than ``controller_timeout_s`` gets the fault policy.
+
+Every node reports its loop timing and faults on ``/diagnostics`` once per second (wall clock).
+With ``result_path`` set, the run's time series is saved there at the end (``.npz``, the format
+of rotor_avc.sim.timeseries, or ``.mcap`` in the bag format).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from geometry_msgs.msg import WrenchStamped
+from rclpy.node import Node
+from std_msgs.msg import Float64MultiArray
+
+from ..errors import ModelError, RotorAvcError
+from ..sim.loop import forces_from_answers, start, timeseries_from_run
+from ..sim.scenario import load_scenario
+from . import messages as m
+from .lockstep import POLICIES, AnswerBook
+from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .timing import LoopTiming
+
+PARAMS = COMMON_PARAMS + (
+    Param("scenario", "", "scenario config (path or shipped name): machine, controllers, "
+          "simulation section"),
+    Param("mode", "lockstep", "lockstep: step when every controller answered; realtime: step on "
+          "the wall clock with the latest forces", choices=("lockstep", "realtime")),
+    Param("namespace", m.NAMESPACE, "topic namespace of the machine (/<namespace>/foot/...)"),
+    Param("duration_s", 0.0, "simulated time in s; 0 = the scenario's duration", minimum=0.0),
+    Param("controller_timeout_s", 1.0, "wall time without an answer before a controller is "
+          "declared absent (then the fault policy applies)", minimum=1e-3, maximum=3600.0),
+    Param("resend_after_s", 0.25, "lockstep: wall time after which an unanswered sample is "
+          "published again", minimum=1e-3, maximum=3600.0),
+    Param("fault_policy", "hold", "force of an absent controller: hold its last force or zero",
+          choices=POLICIES),
+    Param("discovery_timeout_s", 30.0, "wall time to wait for every controller to connect",
+          minimum=0.0, maximum=3600.0),
+    Param("balancer", False, "lockstep: also wait for the balancer's command at every sample"),
+    Param("result_path", "", "save the run's time series here at the end (.npz or .mcap)"),
+    Param("exit_when_done", True, "end the node when the run is complete"),
+)
+
+
+class PlantSimulator(Node):
+    """The plant node (see the module docstring)."""
+
+    def __init__(self, name: str = "plant_simulator", **kwargs):
+        super().__init__(name, **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        self.executor_kind = self.p["executor"]
+        if not self.p["scenario"]:
+            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give a "
+                                "scenario config, e.g. -p scenario:=scenario_case3_steady")
+        self.scenario = load_scenario(self.p["scenario"])
+        sc = self.scenario
+        self.T = sc.sample_period_s
+        self.n_steps = (max(1, int(round(self.p["duration_s"] / self.T))) if self.p["duration_s"]
+                        else sc.n_steps)
+        self.stepper = sc.stepper()
+        plant = self.stepper.plant
+        self.axis = {a.id: a.axis for a in plant.actuators}
+        self.feedback = {foot: ctrl.feedback for foot, ctrl in sc.machine.controllers.items()}
+        ns = self.p["namespace"]
+        lay = self.stepper.layout
+        # foot measurements: acceleration of every actuated foot, plus each controller's signal
+        self.meas = []                       # (publisher, reusable message, index in y)
+        for act in plant.actuators:
+            kinds = {"acceleration", self.feedback.get(act.id, "acceleration")}
+            for kind in sorted(kinds):
+                self.meas.append((self.create_publisher(m.MEASUREMENT_TYPES[kind],
+                                                        m.foot_topic(act.id, kind, ns),
+                                                        m.LOCKSTEP_QOS),
+                                  m.Measurement(kind, act.id, act.axis),
+                                  lay.feedback_index(act.id, kind)))
+        self.rotor = m.Rotor()
+        self.pub_joint = self.create_publisher(type(self.rotor.joint), m.topic("rotor/joint_state", ns),
+                                               m.LOCKSTEP_QOS)
+        self.pub_clock = self.create_publisher(type(self.rotor.clock), "/clock", m.LOCKSTEP_QOS)
+        self.observables = m.Labelled(["time_s"] + lay.names)
+        self.pub_obs = self.create_publisher(Float64MultiArray, m.topic("plant/observables", ns),
+                                             m.LOCKSTEP_QOS)
+        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        responders = tuple(self.feedback) + (("balancer",) if self.p["balancer"] else ())
+        self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
+                               self.p["resend_after_s"])
+        for foot in self.feedback:
+            self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
+                                     lambda msg, f=foot: self._on_force(f, msg), m.LOCKSTEP_QOS)
+        self.correction_names = [f"{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
+        if self.p["balancer"]:
+            self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
+                                     self._on_balancer, m.LOCKSTEP_QOS)
+        self.last_force_time = {foot: None for foot in self.feedback}
+        self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
+        self.Y = np.empty((self.n_steps, len(lay.names)))
+        self.U = np.empty((self.n_steps, self.stepper.n_inputs))
+        self.C = (np.zeros((self.n_steps, len(plant.excitations)), complex)
+                  if self.p["balancer"] else None)
+        self.k = 0
+        self.y = None
+        self.started = False
+        self.finished = False
+        self.exit_requested = False
+        self.t_created = time.monotonic()
+        self.fault_log: list[str] = []
+        self.create_timer(0.01, self._tick_waiting)
+        self.create_timer(1.0, self._publish_diagnostics)
+        if self.p["mode"] == "realtime":
+            self.create_timer(self.T, self._tick_realtime)
+
+    # -- start ----------------------------------------------------------------------------------
+    def _connected(self) -> bool:
+        ns = self.p["namespace"]
+        for pub, msg, idx in self.meas:
+            foot = msg.msg.header.frame_id[len("foot_"):]
+            if foot in self.feedback and pub.get_subscription_count() < 1:
+                return False
+        for foot in self.feedback:
+            if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
+                return False
+        if self.p["balancer"] and self.count_publishers(m.topic("balancer/command", ns)) < 1:
+            return False
+        return True
+
+    def _start(self) -> None:
+        sc = self.scenario
+        # the periodic steady state depends on the controllers: the plant builds its own copies
+        # of them for that computation only (the controller nodes compute the same)
+        self.y = start(self.stepper, sc.controllers(), sc.initial_state)
+        self.started = True
+        self.t_start = time.monotonic()
+        self._publish_sample()
+
+    # -- lockstep -------------------------------------------------------------------------------
+    def _publish_sample(self, begin: bool = True) -> None:
+        """Publish sample k (again, with ``begin=False``: a resend of the same stamp)."""
+        if begin:
+            self.timing.start()
+        k, y = self.k, self.y
+        t_ns = m.sample_ns(k, self.T)
+        for pub, msg, idx in self.meas:
+            pub.publish(msg.fill(t_ns, y.item(idx)))
+        speed, _, angle = self.stepper.speed_state()
+        joint, clock = self.rotor.fill(t_ns, angle, speed)
+        self.pub_joint.publish(joint)
+        self.pub_clock.publish(clock)
+        self.pub_obs.publish(self.observables.fill([k * self.T] + y.tolist()))
+        if begin:
+            self.book.begin(t_ns, time.monotonic())
+            self.timing.stop()
+
+    def _on_force(self, foot: str, msg: WrenchStamped) -> None:
+        value = m.force_value(msg, self.axis[foot])
+        self.last_force_time[foot] = time.monotonic()
+        if self.p["mode"] == "realtime":
+            if not self.book.responders[foot].present:
+                self.book.responders[foot].present = True
+            self.book.responders[foot].last_value = value
+            return
+        if self.started and not self.finished and self.book.receive(foot, m.stamp_ns(msg.header.stamp), value):
+            self._advance()
+
+    def _on_balancer(self, msg: Float64MultiArray) -> None:
+        names = m.labels(msg)
+        if names != ["time_s"] + self.correction_names:
+            self._fault(f"balancer command labels {names} are not time_s + {self.correction_names}")
+            return
+        data = msg.data
+        corr = {e.name: complex(data[1 + 2 * j], data[2 + 2 * j])
+                for j, e in enumerate(self.stepper.plant.excitations)}
+        if (self.started and not self.finished
+                and self.book.receive("balancer", m.time_to_ns(data[0]), corr)):
+            self._advance()
+
+    def _forces(self) -> np.ndarray:
+        return forces_from_answers(self.stepper, {foot: self.book.value(foot, 0.0)
+                                                  for foot in self.feedback})
+
+    def _advance(self) -> None:
+        """All answers of sample k are in: record, hold u_k, step to k+1, publish it."""
+        u = self._forces()
+        if self.C is not None:
+            corr = self.book.value("balancer", None)
+            if corr is not None:
+                self.stepper.set_correction(corr)
+            self.C[self.k] = list(self.stepper.correction.values())
+        self.Y[self.k] = self.y
+        self.U[self.k] = u
+        self.y = self.stepper.step(u)
+        self.k += 1
+        if self.k >= self.n_steps:
+            self._finish()
+            return
+        self._publish_sample()
+
+    def _tick_waiting(self) -> None:
+        if self.finished:
+            return
+        now = time.monotonic()
+        if not self.started:
+            if self._connected():
+                self._start()
+            elif now - self.t_created > self.p["discovery_timeout_s"]:
+                missing = [f for f in self.feedback if self.count_publishers(
+                    m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
+                self._fault(f"controllers did not connect within {self.p['discovery_timeout_s']:g}"
+                            f" s: {missing}; starting with the fault policy for them")
+                self._start()
+            return
+        if self.p["mode"] == "realtime":
+            return
+        resend, absent = self.book.poll(now)
+        for name in absent:
+            self._fault(f"{name}: {self.book.responders[name].fault_reason}")
+        if resend:
+            self._publish_sample(begin=False)
+        # with responders absent the plant no longer waits for them: advance a batch per tick
+        for _ in range(64):
+            if self.finished or not self.book.ready():
+                break
+            self._advance()
+
+    # -- real time ------------------------------------------------------------------------------
+    def _tick_realtime(self) -> None:
+        if not self.started or self.finished:
+            return
+        now = time.monotonic()
+        for foot, t_last in self.last_force_time.items():
+            r = self.book.responders[foot]
+            if r.present and (t_last is None and now - self.t_start > self.p["controller_timeout_s"]
+                              or t_last is not None and now - t_last > self.p["controller_timeout_s"]):
+                r.present = False
+                r.faults += 1
+                r.fault_reason = f"silent for more than {self.p['controller_timeout_s']:g} s"
+                self._fault(f"{foot}: {r.fault_reason}; policy: {self.book.policy}")
+        u = forces_from_answers(self.stepper, {f: self.book.value(f, 0.0) for f in self.feedback})
+        self._publish_sample()
+        self.timing.start()
+        self.Y[self.k] = self.y
+        self.U[self.k] = u
+        self.y = self.stepper.step(u)
+        self.k += 1
+        self.timing.stop()
+        if self.k >= self.n_steps:
+            self._finish()
+
+    # -- end, faults, diagnostics ---------------------------------------------------------------
+    def _fault(self, text: str) -> None:
+        self.fault_log.append(text)
+        self.get_logger().warning(text)
+        self._publish_diagnostics()
+
+    def _finish(self) -> None:
+        self.finished = True
+        self.wall_s = time.monotonic() - self.t_start
+        self._publish_diagnostics()
+        if self.p["result_path"]:
+            self.result().save(self.p["result_path"])
+        self.exit_requested = self.p["exit_when_done"]
+
+    def result(self):
+        """The run so far as a :class:`rotor_avc.sim.timeseries.TimeSeries`."""
+        sc = self.scenario
+        meta = {"scenario": sc.machine.config.source, "config": sc.machine.config.data,
+                "mode": self.p["mode"], "faults": self.fault_log}
+        C = self.C[:self.k] if self.C is not None else None
+        return timeseries_from_run(self.stepper, self.Y[:self.k], self.U[:self.k], C, meta,
+                                   sc.initial_state, sc.machine.controllers)
+
+    def _publish_diagnostics(self) -> None:
+        stats = self.timing.summary()
+        stats.update({"sample": self.k, "samples_total": self.n_steps,
+                      "resends": self.book.resends})
+        level, text = "ok", "running" if self.started else "waiting for controllers"
+        absent = self.book.absent()
+        if absent:
+            level = "error"
+            text = "; ".join(f"{a}: {self.book.responders[a].fault_reason}" for a in absent)
+        elif self.fault_log:
+            level, text = "warn", self.fault_log[-1]
+        if self.finished and not absent:
+            text = "run complete" + (f" ({len(self.fault_log)} faults)" if self.fault_log else "")
+        per = [(f"{self.get_name()}: {name}", "error" if not r.present else "ok",
+                r.fault_reason or "answering", {"faults": r.faults})
+               for name, r in self.book.responders.items()]
+        self.pub_diag.publish(m.diagnostics(m.sample_ns(self.k, self.T),
+                                            [(f"{self.get_name()}: loop", level, text, stats)] + per))
+
+
+def main(args=None) -> int:
+    return run_node(PlantSimulator, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
