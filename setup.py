@@ -29,7 +29,8 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-        "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "control>=0.10", "catkin_pkg"],
+        "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "control>=0.10", "catkin_pkg",
+                 "colcon-core", "colcon-ros", "colcon-python-setup-py"],
     },
     zip_safe=True,
     maintainer="rotor_avc developers",

@@ -10,6 +10,7 @@ node. SIGINT and SIGTERM shut a node down cleanly (exit status 0).
 from __future__ import annotations
 
 import math
+import signal
 import sys
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -18,6 +19,7 @@ import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
 
@@ -104,12 +106,23 @@ def make_executor(kind: str):
     return SingleThreadedExecutor()
 
 
+class _Stop(BaseException):
+    """Raised by the SIGINT/SIGTERM handler: unwinds to run_node's clean shutdown."""
+
+
+def _stop(signum, frame):
+    raise _Stop(signum)
+
+
 def run_node(factory: Callable[[], Node], args=None) -> int:
     """``main()`` of a node: init, build, spin with the node's executor, shut down cleanly.
 
     A :class:`RotorAvcError` while building (bad parameter or config) is printed as one line and
-    exits with status 2; SIGINT/SIGTERM end the spin and exit with status 0."""
-    rclpy.init(args=args)
+    exits with status 2; SIGINT/SIGTERM -- at any time, also while the node is still being
+    built -- end the run through the same clean shutdown (files closed) with status 0."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _stop)
     node = None
     status = 0
     try:
@@ -124,7 +137,7 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
         status = 2
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except (_Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         if node is not None:

@@ -12,6 +12,7 @@ A scenario file includes a machine config (``include: foot_mount_case3.yaml``) a
       damping_at: speed             # speed: w_F = max(Omega, floor); whirl: frozen at whirl_rad_s
       initial_state: steady_state   # rest | steady_state (the sampled loop's periodic solution)
       speed_grid_tol: 1.0e-5        # rotor_avc.sim.propagator (accuracy of variable speed)
+      balancer: false               # run the config's `balancer:` (rotor_avc.balancing.loop_block)
 
 Checks (each a :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
 duration; a sample rate above twice the highest rotational frequency and above twice the
@@ -27,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ..balancing.loop_block import LoopBalancer
+from ..balancing.scenario import machine_setup
 from ..control.block import DEFAULT_SAMPLE_RATE_HZ, build_digital_controllers
 from ..errors import ModelError
 from ..machine import Machine, load_machine
@@ -36,7 +39,7 @@ from .speed_profile import SpeedProfile, profile_from_config
 from .stepper import DEFAULT_GRID_TOL, PlantStepper
 from .timeseries import TimeSeries
 
-SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at",
+SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
                    "whirl_rad_s", "initial_state", "speed_grid_tol")
 DEFAULT_RELEVANT_MODES = 6
 
@@ -51,6 +54,7 @@ class Scenario:
     damping: DampingRule
     initial_state: str
     grid_tol: float
+    use_balancer: bool = False
 
     @property
     def n_steps(self) -> int:
@@ -76,8 +80,15 @@ class Scenario:
                 "unbalance": sim.get("unbalance"), "damping": self.damping.describe(),
                 "initial_state": self.initial_state}
 
+    def balancer(self):
+        """The balancer block of the run (``simulation.balancer: true``), or None."""
+        if not self.use_balancer:
+            return None
+        return LoopBalancer(machine_setup(self.machine), self.sample_period_s)
+
     def run(self, progress: bool | None = None, balancer=None) -> TimeSeries:
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
+        balancer = self.balancer() if balancer is None else balancer
         return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
                         initial_state=self.initial_state, progress=progress, metadata=meta)
 
@@ -163,9 +174,16 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     if initial == "steady_state" and profile.sample(np.array(0.0))[0] <= 0:
         raise sim.error("initial_state", "a steady state needs the shaft turning at t = 0",
                         fix="start the speed profile above 0 Hz or use `initial_state: rest`")
+    use_balancer = sim.raw("balancer", False)
+    if not isinstance(use_balancer, bool):
+        raise sim.error("balancer", f"must be true or false (got {use_balancer!r})")
+    if use_balancer and not cfg.has("balancer"):
+        raise sim.error("balancer", "true, but the config has no `balancer:` section",
+                        fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
     return Scenario(machine, 1.0 / fs, duration, profile,
                     _amplitudes(machine, sim.section("unbalance", {})), damping, initial,
-                    sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1))
+                    sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
+                    use_balancer)
 
 
 def load_scenario(name) -> Scenario:
