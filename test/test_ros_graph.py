@@ -160,3 +160,37 @@ def test_bad_parameter_exits_with_clear_message():
     out = stop(proc, timeout_s=60) if proc.wait(timeout=60) is None else proc.stdout.read()
     assert proc.returncode == 2
     assert "no_such_scenario" in out and "Traceback" not in out
+
+
+def test_balancer_node_in_lockstep_equals_in_process(tmp_path):
+    """Plant (waiting for the balancer) + balancer node: the corrections and the vibration equal
+    the in-process loop with the same balancer block."""
+    from rotor_avc.config import find_config
+    from rotor_avc.nodes.balancer import Balancer
+    path = tmp_path / "balance.yaml"
+    path.write_text(f"""include: {find_config('scenario_balance_runup')}
+balancer:
+  supervisor: {{estimate_until_s: 0.2}}
+simulation:
+  speed: {{type: ramp, start_hz: 6.0, stop_hz: 8.0, duration_s: 1.0}}
+  duration_s: 0.6
+""")
+    plant = PlantSimulator("plant_bal", parameter_overrides=params(scenario=str(path), balancer=True))
+    bal = Balancer("balancer", parameter_overrides=params(scenario=str(path)))
+    ex = make_executor("events")
+    for n in (plant, bal):
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: plant.finished, timeout_s=180)
+    finally:
+        ex.shutdown()
+        plant.destroy_node()
+        bal.destroy_node()
+    ts = plant.result()
+    sc = load_scenario(str(path))
+    ref = run_loop(sc.stepper(), {}, plant.n_steps, balancer=sc.balancer(), progress=False)
+    for ch in ("balancer_static_re", "balancer_static_im", "balancer_moment_re", "bearing_D_vz"):
+        scale = np.max(np.abs(ref[ch]))
+        assert scale > 0, ch
+        assert np.max(np.abs(ts[ch] - ref[ch])) <= 1e-9 * scale, ch
+    assert bal.block.last_output.mode != "estimate"          # it moved during the run
