@@ -18,8 +18,13 @@ def test_poles_json(capsys):
     assert all(r["re"] < 0 for r in out["poles"])
 
 
+def test_poles_default_to_the_rated_speed(capsys):
+    assert main(["poles", "sleeve_bearing_motor", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["speed_hz"] == 60.0
+
+
 def test_poles_at_standstill_is_a_clear_error(capsys):
-    assert main(["poles", "sleeve_bearing_motor"]) == 2
+    assert main(["poles", "sleeve_bearing_motor", "--speed-hz", "0"]) == 2
     err = capsys.readouterr().err
     assert "tabulated for 100 .. 6000 rpm" in err and "Traceback" not in err
 

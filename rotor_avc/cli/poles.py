@@ -9,15 +9,17 @@ from ..machine import load_machine
 from .common import nonnegative_float
 
 NAME = "poles"
-HELP = ("Closed-loop poles of a machine config at one rotor speed (worst-case damping "
-        "procedure), with frequencies and damping ratios.")
+HELP = ("Closed-loop poles of a machine config at one rotor speed, with the loss-factor "
+        "damping procedure of its paper (analysis.pole_method: seed 000's worst case, the "
+        "whirl-frequency iteration, ...), with frequencies and damping ratios.")
 EXAMPLE = "rotor-avc poles foot_mount_case3 --speed-hz 50 --json"
 
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name (foot_mount_case3)")
-    p.add_argument("--speed-hz", type=nonnegative_float, default=0.0,
-                   help="rotor speed f_r in Hz (default 0)")
+    p.add_argument("--speed-hz", type=nonnegative_float, default=None,
+                   help="rotor speed f_r in Hz (default: the first of the config's "
+                        "analysis.pole_speeds_hz, else 0)")
     p.add_argument("--json", action="store_true",
                    help='print {"speed_hz": F, "poles": [{"re","im","freq_hz","damping_ratio"}]} '
                         "(re/im in rad/s; one pole of each conjugate pair)")
@@ -25,6 +27,8 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     machine = load_machine(args.config)
+    if args.speed_hz is None:
+        args.speed_hz = machine.analysis.number_list("pole_speeds_hz", [0.0], min_length=1)[0]
     result = machine_poles(machine, 2 * math.pi * args.speed_hz)
     rows = result.table()
     if args.json:
