@@ -79,8 +79,23 @@ def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousC
     return controllers
 
 
-def load_machine(name) -> Machine:
-    """Load, validate and build a machine config (a path or a shipped config name)."""
-    cfg = load_config(name)
+def machine_from_section(cfg: Section) -> Machine:
+    """Validate and build a machine from a loaded config (the path every loader shares)."""
     plant = build_plant(cfg)
     return Machine(cfg, plant, build_controllers(cfg, plant))
+
+
+def load_machine(name) -> Machine:
+    """Load, validate and build a machine config (a path or a shipped config name)."""
+    return machine_from_section(load_config(name))
+
+
+def machine_from_config(data, source: str = "") -> Machine:
+    """Build a machine from a merged config mapping that is already loaded, e.g. the ``machine``
+    section a bag records (rotor_avc.bag.metadata); ``source`` labels every error message
+    (``"run.mcap (recorded configuration)"``)."""
+    if not isinstance(data, dict):
+        raise ConfigError("(top level)", f"must be a mapping of keys to values (got "
+                          f"{type(data).__name__})", fix="give the merged machine config",
+                          source=source)
+    return machine_from_section(Section(data, "", source))

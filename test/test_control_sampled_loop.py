@@ -171,8 +171,10 @@ def test_gain_ranges_per_rate_and_errors(case3):
     loop = machine_sampled_loop(case3, 1 / 1000.0)
     with pytest.raises(ModelError, match="Nyquist"):
         loop.unbalance_frf(2 * np.pi * np.array([100.0, 600.0]))
-    with pytest.raises(ModelError, match="at least one controller"):
+    with pytest.raises(ModelError, match="a loop without controllers needs one given"):
         SampledLoop(case3.plant, {}, {})
+    open_loop = SampledLoop(case3.plant, {}, {}, 1 / 1000.0)      # loops open: the exact sampled plant
+    assert open_loop.sample_period_s == 1 / 1000.0 and open_loop.poles(50.0, 50.0).stable
 
 
 def test_unstable_loop_grows_in_time_as_its_largest_pole(case3):

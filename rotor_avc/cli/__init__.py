@@ -13,9 +13,10 @@ import sys
 from ..errors import RotorAvcError
 
 COMMANDS = [
-    "poles", "frf", "controller", "simulate",                # any machine
+    "poles", "frf", "controller", "simulate", "compare",     # any machine
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
     "demo",                                                  # the main job
+                                                   # bags into the ROS graph
 ]
 
 

@@ -183,6 +183,10 @@ def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) 
         name = f"actuator_{act_id}_f{axis}"
         channels[name] = U[:, ids.index(act_id)].copy() if act_id in ids else np.zeros(n)
         units[name] = "N"
+    test = stepper.test_force
+    if test is not None:           # d_k, added to u_k by the stepper (rotor_avc.sim.broadband)
+        channels[test.channel] = test.values(0, n)
+        units[test.channel] = "N"
     if C is not None:
         for j, exc in enumerate(stepper.plant.excitations):
             for part, values in (("re", C[:, j].real), ("im", C[:, j].imag)):
@@ -195,5 +199,7 @@ def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) 
             "controllers": {k: getattr(c, "describe", lambda: repr(c))()
                             for k, c in controllers.items()},
             "speed_nodes": int(stepper.table.nodes.size)}
+    if test is not None:
+        meta["test_signal"] = test.describe()
     meta.update(metadata)
     return TimeSeries(t, speed, accel, angle, channels, units, meta)

@@ -12,6 +12,8 @@ A scenario file includes a machine config (``include: foot_mount_case3.yaml``) a
       damping_at: speed             # speed: w_F = max(Omega, floor); whirl: frozen at whirl_rad_s
       initial_state: steady_state   # rest | steady_state (the sampled loop's periodic solution)
       speed_grid_tol: 1.0e-5        # rotor_avc.sim.propagator (accuracy of variable speed)
+      test_signal: {actuator: DL, kind: white, rms_n: 200.0, band_hz: [2.0, 400.0], seed: 1}
+                                    # optional broadband force for FRFs (rotor_avc.sim.broadband)
       balancer: false               # run the config's `balancer:` (rotor_avc.balancing.loop_block)
 
 Checks (each a :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
@@ -32,7 +34,8 @@ from ..balancing.loop_block import LoopBalancer
 from ..balancing.scenario import machine_setup
 from ..control.block import DEFAULT_SAMPLE_RATE_HZ, build_digital_controllers
 from ..errors import ModelError
-from ..machine import Machine, load_machine
+from ..machine import Machine, load_machine, machine_from_config
+from .broadband import BroadbandForce, broadband_from_config
 from .loop import INITIAL_STATES, run_loop
 from .propagator import DAMPING_RULES, DampingRule
 from .speed_profile import SpeedProfile, profile_from_config
@@ -40,7 +43,7 @@ from .stepper import DEFAULT_GRID_TOL, PlantStepper
 from .timeseries import TimeSeries
 
 SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
-                   "whirl_rad_s", "initial_state", "speed_grid_tol")
+                   "whirl_rad_s", "initial_state", "speed_grid_tol", "test_signal")
 DEFAULT_RELEVANT_MODES = 6
 
 
@@ -55,6 +58,7 @@ class Scenario:
     initial_state: str
     grid_tol: float
     use_balancer: bool = False
+    test_force: BroadbandForce | None = None
 
     @property
     def n_steps(self) -> int:
@@ -62,7 +66,7 @@ class Scenario:
 
     def stepper(self) -> PlantStepper:
         return PlantStepper(self.machine.plant, self.sample_period_s, self.profile,
-                            self.amplitudes, self.damping, self.grid_tol)
+                            self.amplitudes, self.damping, self.grid_tol, self.test_force)
 
     def controllers(self) -> dict:
         return build_digital_controllers(self.machine, self.sample_period_s)
@@ -78,7 +82,8 @@ class Scenario:
                                    "sample_rate_hz": 1.0 / self.sample_period_s},
                 "balancer": data.get("balancer"), "speed_profile": sim.get("speed"),
                 "unbalance": sim.get("unbalance"), "damping": self.damping.describe(),
-                "initial_state": self.initial_state}
+                "initial_state": self.initial_state,
+                "test_signal": None if self.test_force is None else self.test_force.describe()}
 
     def balancer(self):
         """The balancer block of the run (``simulation.balancer: true``), or None."""
@@ -180,12 +185,20 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     if use_balancer and not cfg.has("balancer"):
         raise sim.error("balancer", "true, but the config has no `balancer:` section",
                         fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
+    test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
+            if sim.has("test_signal") else None)
     return Scenario(machine, 1.0 / fs, duration, profile,
                     _amplitudes(machine, sim.section("unbalance", {})), damping, initial,
                     sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
-                    use_balancer)
+                    use_balancer, test)
 
 
 def load_scenario(name) -> Scenario:
     """Load a scenario file (a path or a shipped config name)."""
     return scenario_from_machine(load_machine(name))
+
+
+def scenario_from_config(data, source: str = "") -> Scenario:
+    """A scenario from a merged config mapping already loaded (e.g. the ``machine`` section of a
+    bag's configuration); ``source`` labels every error message."""
+    return scenario_from_machine(machine_from_config(data, source))

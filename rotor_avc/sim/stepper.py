@@ -20,6 +20,10 @@ the tangential ``-j Omega'`` term of an accelerating rotor, seed 004 eq. 1)::
 the run and the balancer's corrections ``c_j`` (:meth:`~PlantStepper.set_correction`, effective
 from the next step on).
 
+A broadband test force ``d_k`` (:class:`rotor_avc.sim.broadband.BroadbandForce`, optional) is
+added to the forces of its actuator: the plant holds ``u_k + d_k`` over ``[t_k, t_k+1)``, and the
+acceleration at ``t_k+1`` carries its feed-through like that of ``u_k``.
+
 One sample is one mat-vec at constant speed (:mod:`rotor_avc.sim.propagator` folds
 propagation, measurement and the rotating excitation into one matrix); while the speed changes,
 two more (interpolation) and one small one (measurement speed).
@@ -46,6 +50,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..models.plant import LinearPlant
+from .broadband import BroadbandForce
 from .propagator import (DampingRule, PropagatorTable, basis_coefficients, max_node_spacing,
                          speed_nodes)
 from .speed_profile import SpeedProfile
@@ -97,7 +102,8 @@ class PlantStepper:
 
     def __init__(self, plant: LinearPlant, sample_period_s: float, profile: SpeedProfile,
                  amplitudes: Mapping[str, complex] | None = None,
-                 damping: DampingRule = DampingRule(), grid_tol: float = DEFAULT_GRID_TOL):
+                 damping: DampingRule = DampingRule(), grid_tol: float = DEFAULT_GRID_TOL,
+                 test_force: BroadbandForce | None = None):
         T = float(sample_period_s)
         if not (np.isfinite(T) and T > 0):
             raise ModelError(f"sample period must be > 0 (got {sample_period_s})")
@@ -116,6 +122,14 @@ class PlantStepper:
         self._N = 2 * plant.n
         self.n_inputs = lay.u.stop - lay.u.start
         self._exc_of_basis = np.array([b.excitation for b in self.table.bases], dtype=int)
+        self.test_force = test_force
+        self._test_at = self._d = None
+        if test_force is not None:
+            plant.actuator(test_force.actuator)         # raises, naming the plant's actuators
+            if abs(test_force.sample_period_s - T) > 1e-12 * T:
+                raise ModelError(f"the test force is sampled at {1 / test_force.sample_period_s:g}"
+                                 f" Hz, the plant at {1 / T:g} Hz; they must share one rate")
+            self._test_at = lay.u.start + [a.id for a in plant.actuators].index(test_force.actuator)
         self._base_amp = np.zeros(len(plant.excitations), complex)
         self._corr = np.zeros(len(plant.excitations), complex)
         self.set_amplitudes(amplitudes or {})
@@ -204,6 +218,8 @@ class PlantStepper:
         self._i_mid, self._w_mid = i_mid.tolist(), w_mid.tolist()
         self._j_cor, self._c_cor = j_cor.tolist(), c_cor.tolist()
         self._moving = ((w_mid != 0) | (c_cor != 0)).tolist()
+        if self.test_force is not None:
+            self._d = self.test_force.values(k0, CHUNK).tolist()
         self._k0, self._n_chunk = k0, CHUNK
 
     # -- the block ----------------------------------------------------------------------------
@@ -240,6 +256,8 @@ class PlantStepper:
             j = 0
         v = self._v
         v[self._u_slice] = forces
+        if self._test_at is not None:
+            v[self._test_at] += self._d[j]
         if self._W is None:        # amplitudes changed since the chunk was filled
             np.multiply(self._h[j], self._amp2, out=self._w_both)
         else:

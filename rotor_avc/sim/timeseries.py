@@ -9,7 +9,9 @@ Row ``k`` is sample ``t_k = k T`` of the sampling contract (DESIGN.md section 3)
 * channels named like ``plant.outputs`` (e.g. ``bearing_D_vz``, m/s) at ``t_k``;
 * channels ``actuator_<id>_f<axis>`` -- the force (N) the controller answered sample ``k``
   with, held over ``[t_k, t_k+1)``; zero at points without a controller;
-* with a balancer: ``balancer_<excitation>_re`` / ``_im``, the correction applied from ``t_k+1``.
+* with a balancer: ``balancer_<excitation>_re`` / ``_im``, the correction applied from ``t_k+1``;
+* with a test force (``simulation.test_signal``): ``test_signal_<id>_f<axis>``, the force (N)
+  added to the actuator's force over ``[t_k, t_k+1)`` (rotor_avc.sim.broadband).
 
 1x phasors (order tracking) come from :mod:`rotor_avc.analysis.order_tracking`.
 

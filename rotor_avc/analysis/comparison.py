@@ -1,0 +1,432 @@
+"""Offline comparison of a recorded run with the analytical models (issue 6, DESIGN.md section 5).
+
+Everything comes from the bag (:func:`rotor_avc.analysis.recorded_run.read_run`): the scenario is
+rebuilt from the bag's configuration, so both models use the simulator's plant, controllers,
+sample rate, unbalance and damping rule (``w_F = max(Omega, floor)`` updated with the speed, or
+frozen at ``whirl_rad_s``).
+
+**1x response.** Order tracking on the recorded shaft angle
+(:mod:`rotor_avc.analysis.order_tracking`): one phasor per constant-speed dwell over the whole
+revolutions of its second half (after the transient), or, for a run without dwells, per window
+of :data:`RUNUP_REVOLUTIONS` revolutions (quasi-stationary). Channels: the plant's outputs
+(bearing-housing and foundation velocities), the foot accelerations and the controllers' forces.
+With several excitations the measured 1x is their superposition, compared with
+``sum_j G_j(Omega) u_j`` (the run's complex amplitudes ``u_j``); with one, both are divided by
+it (response per unit unbalance, as the papers plot). Models at the measured speeds: the
+continuous loop (:func:`rotor_avc.analysis.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
+sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
+lockstep run reproduces), the foot accelerations added as outputs of the plant.
+
+**Broadband FRFs.** When the run had a test force (``simulation.test_signal``), H1, H2 and
+coherence (:func:`rotor_avc.analysis.frf_estimate.estimate_frf`: Hann window, 50 % overlap,
+power-of-two segments giving about 16 averages) from the force to the foot accelerations and
+bearing-housing velocities, per dwell of at least :data:`MIN_BROADBAND_SAMPLES` samples, against
+:mod:`rotor_avc.analysis.transfer` at the dwell's speed with ``w_F`` frozen as the run had it.
+
+**Checks** against the sampled-loop model (the acceptance of issue 6: a lockstep bag agrees within
+0.5 dB away from resonances and 2 dB at them, resonance frequencies within 1 %), each the worst
+case over channels and speeds: 1x magnitude error away from resonances (0.5 dB) and at them
+(2 dB), the RMS over speed of a channel's 1x error in dB (0.5 dB), resonance frequency (1 %) and
+peak level (2 dB), and per broadband dwell the RMS of H1's error in dB over the bins of the test
+band with coherence >= :data:`MIN_COHERENCE` (0.5 dB). Phase errors are reported. The continuous
+model's values are reported beside them without a verdict, and so are the 1x checks of a run
+with a test force (its response at the rotational frequency is noise to the order tracking).
+Points more than :data:`FLOOR_DB` below a channel's model peak (notches, channels that barely
+respond) are not checked.
+Resonances (:mod:`rotor_avc.analysis.resonance_peaks`) are the model's peaks of at least 3 dB
+prominence inside the measured speeds; a point lies "at" one within its half-power (-3 dB) band,
+and its measured frequency and level come from the parabola through the highest measured point
+of that band and its neighbours, when they resolve it.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..control.block import build_digital_controllers
+from ..errors import ModelError
+from ..models.plant import Output
+from . import order_tracking
+from .closed_loop import ClosedLoop
+from .frf import unbalance_frf
+from .frf_estimate import FrfEstimate, estimate_frf
+from .poles import closed_loop_poles
+from .recorded_run import RecordedRun, read_run
+from .resonance_peaks import measured_resonance, model_peaks
+from .sampled_loop import SampledLoop
+from .transfer import TransferFrf, sampled_transfer_frf, transfer_frf
+
+TOL_OFF_RESONANCE_DB = 0.5
+TOL_AT_RESONANCE_DB = 2.0
+TOL_RESONANCE_PCT = 1.0
+TOL_BAND_RMS_DB = 0.5
+FLOOR_DB = 40.0
+MIN_COHERENCE = 0.98
+MIN_BROADBAND_SAMPLES = 2048
+RUNUP_REVOLUTIONS = 8
+DENSE_POINTS = {"continuous": 1500, "sampled": 400}
+
+
+@dataclass
+class Check:
+    """One metric against its tolerance; ``passed`` None: nothing to check, or reported without
+    a verdict (the continuous model)."""
+
+    name: str
+    value: float | None
+    tolerance: float
+    unit: str
+    passed: bool | None
+    detail: str = ""
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class OneX:
+    """Measured and modelled 1x phasors (per unit of ``reference``) over speed (rad/s)."""
+
+    method: str
+    settings: dict
+    reference: str
+    units: dict[str, str]
+    speed_rad_s: np.ndarray
+    measured: dict[str, np.ndarray]
+    model: dict[str, dict[str, np.ndarray]]                # model -> channel -> at speed_rad_s
+    dense_speed_rad_s: dict[str, np.ndarray]
+    dense: dict[str, dict[str, np.ndarray]]
+    resonances: list[dict] = field(default_factory=list)
+    channels: dict[str, dict] = field(default_factory=dict)  # model -> channel metrics
+
+
+@dataclass
+class Broadband:
+    """H1/H2 from the test force at one dwell, against both transfer models."""
+
+    speed_rad_s: float
+    w_F: float
+    estimate: FrfEstimate
+    outputs: list[str]
+    band_hz: tuple[float, float]
+    models: dict[str, TransferFrf]
+    channels: dict[str, dict] = field(default_factory=dict)
+
+
+@dataclass
+class Comparison:
+    run: RecordedRun
+    one_x: OneX | None
+    broadband: list[Broadband]
+    poles: list[dict]
+    checks: list[Check]
+    reference_metrics: list[Check]
+    notes: list[str]
+
+    @property
+    def passed(self) -> bool:
+        done = [c.passed for c in self.checks if c.passed is not None]
+        return bool(done) and all(done)
+
+
+# -- models ---------------------------------------------------------------------------------------
+def _with_foot_accelerations(plant):
+    """The plant with ``foot_<id>_a<axis>`` (the controllers' sensor rows) added as outputs."""
+    have = {o.name for o in plant.outputs}
+    extra = tuple(Output(f"foot_{a.id}_a{a.axis}", a.sensor_row, 2, "m/s^2")
+                  for a in plant.actuators if f"foot_{a.id}_a{a.axis}" not in have)
+    return dataclasses.replace(plant, outputs=plant.outputs + extra)
+
+
+def _loops(run: RecordedRun) -> dict:
+    machine, T = run.machine, run.sample_period_s
+    plant = _with_foot_accelerations(machine.plant)
+    return {"continuous": ClosedLoop(plant, machine.controllers),
+            "sampled": SampledLoop.from_blocks(plant, build_digital_controllers(machine, T), T)}
+
+
+def _unbalance_models(run, loops, speeds, u_ref, channels) -> dict[str, dict[str, np.ndarray]]:
+    """Superposed 1x response ``sum_j G_j u_j / u_ref`` of each channel, per model."""
+    w_F = run.scenario.damping.w_F(run.machine.plant, speeds)
+    amps = {k: v for k, v in run.scenario.amplitudes.items() if v != 0}
+    out = {}
+    for name, loop in loops.items():
+        frf = (unbalance_frf(loop, speeds, list(amps), w_F) if name == "continuous"
+               else loop.unbalance_frf(speeds, list(amps), w_F))
+        out[name] = {ch: sum(frf.responses[f"{ch}_{e}"] * u for e, u in amps.items()) / u_ref
+                     for ch in channels}
+    return out
+
+
+# -- 1x -------------------------------------------------------------------------------------------
+def one_x_channels(run: RecordedRun) -> list[str]:
+    plant = run.machine.plant
+    names = [o.name for o in plant.outputs] + [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
+    names += [f"actuator_{a.id}_f{a.axis}" for a in plant.actuators]
+    return [n for n in names if n in run.channels]
+
+
+def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
+    """Order tracking of :func:`one_x_channels`: ``(OrderTrack, method, settings)``."""
+    signals = {n: run.channels[n] for n in one_x_channels(run)}
+    t, theta, w = run.time_s, run.angle_rad, run.speed_rad_s
+    try:
+        track = order_tracking.stepped_speed(t, theta, w, signals, u_ref, settle_fraction=0.5)
+        return track, "stepped-speed dwells", {"settle_fraction": 0.5, "min_revolutions": 4,
+                                               "window": "rectangular, whole revolutions"}
+    except ModelError:
+        pass
+    turning = np.flatnonzero(w > 0)
+    if turning.size < 3:
+        raise ModelError("order tracking: the rotor never turns in this run")
+    cut = slice(turning[0], turning[-1] + 1)
+    track = order_tracking.run_up(t[cut], theta[cut], {n: v[cut] for n, v in signals.items()},
+                                  u_ref, revolutions=RUNUP_REVOLUTIONS)
+    return track, "run-up windows (quasi-stationary)", {
+        "revolutions_per_window": RUNUP_REVOLUTIONS, "window": "rectangular, whole revolutions"}
+
+
+def _db(values) -> np.ndarray:
+    with np.errstate(divide="ignore"):
+        return 20 * np.log10(np.abs(values))
+
+
+def _dense_speeds(run, speeds, model) -> np.ndarray:
+    """The measured range widened by 10 % of its top speed on both sides (a peak's prominence
+    needs its flanks), below the Nyquist frequency."""
+    lo, hi = float(speeds.min()), float(speeds.max())
+    pad = max(0.05 * (hi - lo), 0.1 * hi)
+    top = min(hi + pad, 0.98 * np.pi / run.sample_period_s)
+    return np.linspace(max(lo - pad, 1e-3 * hi), top, DENSE_POINTS[model])
+
+
+def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
+    amps = {k: v for k, v in run.scenario.amplitudes.items() if v != 0}
+    if not amps:
+        return None
+    u_ref = next(iter(amps.values())) if len(amps) == 1 else 1.0
+    plant = run.machine.plant
+    units_exc = {e.name: e.unit for e in plant.excitations}
+    track, method, settings = measured_one_x(run, u_ref)
+    channels = list(track.phasors)
+    per = f"/({units_exc[next(iter(amps))]})" if len(amps) == 1 else ""
+    reference = (f"per unit {next(iter(amps))} unbalance ({units_exc[next(iter(amps))]})"
+                 if len(amps) == 1 else "response to the run's superposed unbalance "
+                 + ", ".join(f"{k} = {abs(v):g} {units_exc[k]} at {np.degrees(np.angle(v)):.1f} deg"
+                             for k, v in amps.items()))
+    unit = {o.name: o.unit for o in _with_foot_accelerations(plant).outputs}
+    units = {ch: unit.get(ch, "N") + per for ch in channels}
+    order = np.argsort(track.speed_rad_s)
+    speeds = track.speed_rad_s[order]
+    measured = {ch: track.phasors[ch][order] for ch in channels}
+    model = _unbalance_models(run, loops, speeds, u_ref, channels)
+    dense_speeds = {m: _dense_speeds(run, speeds, m) for m in loops}
+    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, channels)[m]
+             for m in loops}
+    one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense)
+    _one_x_metrics(one)
+    return one
+
+
+def _one_x_metrics(one: OneX) -> None:
+    f_meas = one.speed_rad_s / (2 * np.pi)
+    for m in one.model:
+        f_dense = one.dense_speed_rad_s[m] / (2 * np.pi)
+        one.channels[m] = {}
+        for ch, meas in one.measured.items():
+            dense, mod = one.dense[m][ch], one.model[m][ch]
+            peak = float(np.abs(dense).max())
+            if peak == 0.0 or not np.all(np.isfinite(dense)):
+                one.channels[m][ch] = {"skipped": "the model's response is zero"}
+                continue
+            valid = np.abs(mod) >= peak * 10 ** (-FLOOR_DB / 20)
+            peaks = [p for p in model_peaks(f_dense, dense)
+                     if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
+            at = np.zeros(f_meas.shape, bool)
+            for p in peaks:
+                at |= (f_meas >= p["band_hz"][0]) & (f_meas <= p["band_hz"][1])
+                found, why = measured_resonance(f_meas, _db(meas), p)
+                row = {"model": m, "channel": ch, "model_hz": p["freq_hz"],
+                       "model_level_db": p["level_db"], "half_power_band_hz": list(p["band_hz"])}
+                if found:
+                    row.update(measured_hz=found["freq_hz"], measured_level_db=found["level_db"],
+                               freq_error_pct=100 * (found["freq_hz"] / p["freq_hz"] - 1),
+                               level_error_db=found["level_db"] - p["level_db"])
+                else:
+                    row["not_resolved"] = why
+                one.resonances.append(row)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                err = _db(meas) - _db(mod)
+                phase = np.degrees(np.angle(meas / mod))
+            err = np.where(valid, err, np.nan)
+            one.channels[m][ch] = {
+                "error_db": err, "phase_error_deg": np.where(valid, phase, np.nan),
+                "at_resonance": at, "checked_points": int(valid.sum()),
+                "band_rms_db": float(np.sqrt(np.nanmean(err ** 2))) if valid.any() else None}
+
+
+def _worst(items, what: str):
+    """(value, detail) of the largest |value| among (value, description) pairs."""
+    items = [(abs(v), d) for v, d in items if v is not None and np.isfinite(v)]
+    if not items:
+        return None, f"no {what}"
+    v, d = max(items, key=lambda x: x[0])
+    return float(v), f"worst: {d}"
+
+
+def _one_x_checks(one: OneX, m: str) -> list[Check]:
+    f = one.speed_rad_s / (2 * np.pi)
+    off, at, rms = [], [], []
+    for ch, c in one.channels[m].items():
+        if "skipped" in c:
+            continue
+        for k in np.flatnonzero(np.isfinite(c["error_db"])):
+            (at if c["at_resonance"][k] else off).append(
+                (c["error_db"][k], f"{ch} at {f[k]:.3f} Hz"))
+        rms.append((c["band_rms_db"], ch))
+    res = [r for r in one.resonances if r["model"] == m and "measured_hz" in r]
+    specs = [("1x magnitude error away from resonances", off, TOL_OFF_RESONANCE_DB, "dB",
+              "points"),
+             ("1x magnitude error at resonances", at, TOL_AT_RESONANCE_DB, "dB",
+              "points at a resonance"),
+             ("1x band RMS error", rms, TOL_BAND_RMS_DB, "dB", "channels"),
+             ("resonance frequency error", [(r["freq_error_pct"], f"{r['channel']} at "
+                                             f"{r['model_hz']:.3f} Hz") for r in res],
+              TOL_RESONANCE_PCT, "%", "resolved resonances"),
+             ("resonance peak level error", [(r["level_error_db"], f"{r['channel']} at "
+                                              f"{r['model_hz']:.3f} Hz") for r in res],
+              TOL_AT_RESONANCE_DB, "dB", "resolved resonances")]
+    out = []
+    for name, items, tol, unit, what in specs:
+        value, detail = _worst(items, what)
+        out.append(Check(name, value, tol, unit, None if value is None else value <= tol,
+                         detail))
+    return out
+
+
+# -- broadband ------------------------------------------------------------------------------------
+def broadband_outputs(run: RecordedRun) -> list[str]:
+    plant = run.machine.plant
+    names = [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
+    names += [o.name for o in plant.outputs if o.name.startswith("bearing_")]
+    return [n for n in names if n in run.channels]
+
+
+def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
+    """``(speed_rad_s, H1/H2 estimate)`` per constant-speed dwell long enough, from the test force
+    to :func:`broadband_outputs`."""
+    if run.test_force is None:
+        return []
+    outputs = broadband_outputs(run)
+    Y = np.column_stack([run.channels[n] for n in outputs])
+    T = run.sample_period_s
+    out = []
+    for a, b in order_tracking.dwells(run.speed_rad_s):
+        if b - a < MIN_BROADBAND_SAMPLES or run.speed_rad_s[a] <= 0:
+            continue
+        if not np.allclose(np.diff(run.time_s[a:b]), T, rtol=1e-6, atol=1e-9):
+            raise ModelError(f"{run.path}: samples are missing between {run.time_s[a]:g} and "
+                             f"{run.time_s[b - 1]:g} s; a broadband estimate needs them all")
+        out.append((float(run.speed_rad_s[a]), estimate_frf(run.test_force[a:b], Y[a:b], 1 / T)))
+    return out
+
+
+def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
+    test = run.scenario.test_force
+    results = []
+    for speed, est in measured_broadband(run):
+        outputs = broadband_outputs(run)
+        lo, hi = test.band_hz
+        sel = (est.freq_hz >= max(lo, est.resolution_hz)) & (est.freq_hz <= hi)
+        f = est.freq_hz[sel]
+        w_F = float(run.scenario.damping.w_F(run.machine.plant, np.array(speed)))
+        models = {"continuous": transfer_frf(loops["continuous"], speed, f, test.actuator,
+                                             outputs, w_F),
+                  "sampled": sampled_transfer_frf(loops["sampled"], speed, f, test.actuator,
+                                                  outputs, w_F)}
+        bb = Broadband(speed, w_F, est, outputs, (lo, hi), models)
+        for m, model in models.items():
+            bb.channels[m] = {}
+            for i, name in enumerate(outputs):
+                h1, coh = est.h1[sel, i], est.coherence[sel, i]
+                ok = coh >= MIN_COHERENCE
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    err = _db(h1) - _db(model.responses[name])
+                    phase = np.degrees(np.angle(h1 / model.responses[name]))
+                bb.channels[m][name] = {
+                    "coherent_bins": int(ok.sum()), "bins": int(ok.size),
+                    "band_rms_db": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
+                    "max_error_db": float(np.abs(err[ok]).max()) if ok.any() else None,
+                    "phase_rms_deg": float(np.sqrt(np.mean(phase[ok] ** 2))) if ok.any() else None}
+        results.append(bb)
+    return results
+
+
+def _broadband_checks(bbs: list[Broadband], m: str) -> list[Check]:
+    out = []
+    for bb in bbs:
+        value, detail = _worst([(c["band_rms_db"], name) for name, c in bb.channels[m].items()],
+                               f"bins with coherence >= {MIN_COHERENCE}")
+        out.append(Check(f"broadband H1 band RMS error at {bb.speed_rad_s / (2 * np.pi):.3f} Hz",
+                         value, TOL_BAND_RMS_DB, "dB",
+                         None if value is None else value <= TOL_BAND_RMS_DB, detail))
+    return out
+
+
+# -- poles ----------------------------------------------------------------------------------------
+def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
+    """Continuous and sampled-loop poles (``s``, 1/s) at each speed with the run's ``w_F``."""
+    machine = run.machine
+    sampled = SampledLoop.from_blocks(machine.plant, build_digital_controllers(
+        machine, run.sample_period_s), run.sample_period_s)
+    out = []
+    for speed in speeds_rad_s:
+        w_F = float(run.scenario.damping.w_F(machine.plant, np.array(speed)))
+        cont = closed_loop_poles(machine.loop, float(speed), w_F)
+        samp = sampled.poles(float(speed), w_F)
+        s = samp.s
+        out.append({"speed_hz": float(speed / (2 * np.pi)), "w_F": w_F, "continuous": cont,
+                    "sampled": s[np.isfinite(s)], "sampled_max_abs_z": samp.max_abs_z})
+    return out
+
+
+# -- all of it ------------------------------------------------------------------------------------
+def compare_run(run: RecordedRun) -> Comparison:
+    """The comparison of a recorded run (see the module docstring)."""
+    if run.scenario.use_balancer:
+        raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
+                         "the fixed-unbalance models do not describe; compare a run without it")
+    loops = _loops(run)
+    notes = list(run.notes)
+    one = compare_one_x(run, loops)
+    if one is None:
+        notes.append("the run has no unbalance: no 1x response to compare")
+    bbs = compare_broadband(run, loops)
+    if run.test_force is not None and not bbs:
+        notes.append(f"the run's test force has no constant-speed dwell of "
+                     f"{MIN_BROADBAND_SAMPLES} samples: no broadband FRF")
+    elif run.test_force is not None:
+        notes.append(f"test force: {run.test_source}")
+    rate_one_x = run.test_force is None
+    if one is not None and not rate_one_x:
+        notes.append("1x checks not rated: the broadband test force's response at the rotational "
+                     "frequency adds to the 1x phasors (compare a run without a test force)")
+    checks, reference = [], []
+    for m, target in (("sampled", checks), ("continuous", reference)):
+        one_checks = _one_x_checks(one, m) if one else []
+        bb_checks = _broadband_checks(bbs, m)
+        if m == "continuous" or not rate_one_x:
+            for c in one_checks + (bb_checks if m == "continuous" else []):
+                c.passed = None
+        target += one_checks + bb_checks
+    speeds = (np.unique(one.speed_rad_s) if one else np.array([bb.speed_rad_s for bb in bbs]))
+    if speeds.size > 6:
+        speeds = speeds[np.linspace(0, speeds.size - 1, 6).round().astype(int)]
+    return Comparison(run, one, bbs, run_poles(run, speeds), checks, reference, notes)
+
+
+def compare_bag(path) -> Comparison:
+    """Read a bag and compare it (:func:`read_run`, :func:`compare_run`)."""
+    return compare_run(read_run(path))

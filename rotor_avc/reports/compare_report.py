@@ -1,0 +1,328 @@
+"""The report of ``rotor-avc compare``: ``index.html`` (self-contained), PNG plots, ``frf.csv`` and
+``metrics.json`` in one folder (DESIGN.md section 5).
+
+* ``metrics.json``: ``"pass"`` (true when every check against the sampled-loop model passed), the
+  acceptance it tests, the run (bag, machine, sample rate, damping rule, unbalance), ``checks``
+  (each with ``value``, ``tolerance``, ``unit``, ``passed``, ``detail``), the continuous model's
+  values of the same metrics (``reference_model_metrics``, no verdict), per-channel 1x metrics,
+  the resonances, the broadband estimates with their settings, pole summaries and notes;
+* ``frf.csv``: one row per channel and speed (``kind = 1x``) or frequency (``kind = broadband``):
+  measured (H1 for broadband, with H2 and coherence), sampled-loop and continuous model, each as
+  magnitude (SI unit per unit unbalance or per N) and phase in degrees, and the error in dB of
+  the measurement against the sampled-loop model;
+* ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
+  sampled-loop model solid, continuous dashed), ``broadband_<speed>.png`` (H1, H2, both models,
+  coherence) and ``poles.png`` (continuous and sampled-loop poles at the run's speeds);
+* ``index.html``: the verdict, the checks, the settings and every plot embedded as base64.
+"""
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
+                                   TOL_RESONANCE_PCT, Comparison)
+
+ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "
+              f"within {TOL_OFF_RESONANCE_DB:g} dB away from resonances and "
+              f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
+              f"{TOL_RESONANCE_PCT:g} % (issue 6).")
+STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
+
+
+def _clean(value):
+    """JSON-safe: numpy -> Python, NaN/inf -> None."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _clean(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, complex):
+        return {"re": _clean(value.real), "im": _clean(value.imag)}
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _summary(c: dict) -> dict:
+    if "skipped" in c:
+        return c
+    err, ph = c["error_db"], c["phase_error_deg"]
+    ok = np.isfinite(err)
+    return {"checked_points": c["checked_points"], "band_rms_db": c["band_rms_db"],
+            "max_abs_error_db": float(np.abs(err[ok]).max()) if ok.any() else None,
+            "max_abs_phase_error_deg": float(np.abs(ph[ok]).max()) if ok.any() else None}
+
+
+def metrics(comp: Comparison) -> dict:
+    run = comp.run
+    sc = run.scenario
+    out = {"pass": comp.passed, "acceptance": ACCEPTANCE,
+           "bag": str(run.path), "machine": sc.machine.plant.name,
+           "config_source": run.config.get("source"),
+           "package_version": run.config.get("package_version"),
+           "sample_rate_hz": 1.0 / run.sample_period_s, "damping": sc.damping.describe(),
+           "initial_state": sc.initial_state, "unbalance": dict(sc.amplitudes),
+           "checks": [c.as_dict() for c in comp.checks],
+           "reference_model_metrics": [c.as_dict() for c in comp.reference_metrics],
+           "notes": comp.notes}
+    one = comp.one_x
+    if one is not None:
+        out["one_x"] = {
+            "method": one.method, "settings": one.settings, "reference": one.reference,
+            "speeds_hz": one.speed_rad_s / (2 * np.pi), "units": one.units,
+            "channels": {ch: {m: _summary(one.channels[m][ch]) for m in one.channels}
+                         for ch in one.measured},
+            "resonances": one.resonances}
+    out["broadband"] = [{
+        "speed_hz": bb.speed_rad_s / (2 * np.pi), "w_F_rad_s": bb.w_F,
+        "damping_model": f"viscous-equivalent: w_F frozen at {bb.w_F:.6g} rad/s as the run had "
+                         "it (not the hysteretic model w_F = omega)",
+        "input": sc.test_force.channel, "input_source": run.test_source,
+        "test_signal": sc.test_force.describe(), "band_hz": bb.band_hz,
+        "estimator": "H1 (checked), H2 and coherence", "min_coherence": MIN_COHERENCE,
+        "settings": bb.estimate.settings(), "channels": bb.channels} for bb in comp.broadband]
+    out["poles"] = [{"speed_hz": p["speed_hz"], "w_F_rad_s": p["w_F"],
+                     "continuous_max_real_s": float(np.max(p["continuous"].real)),
+                     "sampled_max_abs_z": p["sampled_max_abs_z"],
+                     "sampled_stable": p["sampled_max_abs_z"] < 1.0} for p in comp.poles]
+    return _clean(out)
+
+
+def _mag_phase(v):
+    return [f"{abs(x):.9g}" for x in v], [f"{np.degrees(np.angle(x)):.6g}" for x in v]
+
+
+def write_csv(comp: Comparison, path: Path) -> Path:
+    cols = ["kind", "speed_hz", "freq_hz", "channel", "unit", "measured_mag",
+            "measured_phase_deg", "h2_mag", "h2_phase_deg", "coherence", "sampled_mag",
+            "sampled_phase_deg", "continuous_mag", "continuous_phase_deg", "error_db"]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        one = comp.one_x
+        if one is not None:
+            f = one.speed_rad_s / (2 * np.pi)
+            for ch, meas in one.measured.items():
+                rows = [_mag_phase(meas), _mag_phase(one.model["sampled"][ch]),
+                        _mag_phase(one.model["continuous"][ch])]
+                err = one.channels["sampled"][ch].get("error_db", np.full(f.size, np.nan))
+                for k in range(f.size):
+                    w.writerow(["1x", f"{f[k]:.9g}", f"{f[k]:.9g}", ch, one.units[ch],
+                                rows[0][0][k], rows[0][1][k], "", "", "", rows[1][0][k],
+                                rows[1][1][k], rows[2][0][k], rows[2][1][k], f"{err[k]:.6g}"])
+        for bb in comp.broadband:
+            est, sel = bb.estimate, np.isin(bb.estimate.freq_hz, bb.models["sampled"].freq_hz)
+            for i, name in enumerate(bb.outputs):
+                h1, h2, coh = est.h1[sel, i], est.h2[sel, i], est.coherence[sel, i]
+                s, c = bb.models["sampled"].responses[name], bb.models["continuous"].responses[name]
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    err = 20 * np.log10(np.abs(h1) / np.abs(s))
+                cols_ = [_mag_phase(h1), _mag_phase(h2), _mag_phase(s), _mag_phase(c)]
+                for k, f in enumerate(est.freq_hz[sel]):
+                    w.writerow(["broadband", f"{bb.speed_rad_s / (2 * np.pi):.9g}", f"{f:.9g}",
+                                name, bb.models["sampled"].units[name],
+                                cols_[0][0][k], cols_[0][1][k], cols_[1][0][k], cols_[1][1][k],
+                                f"{coh[k]:.6g}", cols_[2][0][k], cols_[2][1][k], cols_[3][0][k],
+                                cols_[3][1][k], f"{err[k]:.6g}"])
+    return path
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _db(v):
+    with np.errstate(divide="ignore"):
+        return 20 * np.log10(np.abs(v))
+
+
+def plot_one_x(comp: Comparison, out_dir: Path) -> list[Path]:
+    """One PNG per kind of channel: columns = points, curves = components."""
+    plt, one = _plt(), comp.one_x
+    groups: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
+    for ch in one.measured:
+        point = ch.rpartition("_")[0]
+        groups[ch.split("_")[0]][point].append(ch)
+    f_meas = one.speed_rad_s / (2 * np.pi)
+    paths = []
+    for kind, points in groups.items():
+        fig, axes = plt.subplots(2, len(points), figsize=(3.4 * len(points) + 1.2, 5.6),
+                                 sharex=True, squeeze=False)
+        for col, (point, chans) in enumerate(points.items()):
+            for j, ch in enumerate(chans):
+                color = f"C{j}"
+                for m, style in STYLE.items():
+                    fd = one.dense_speed_rad_s[m] / (2 * np.pi)
+                    axes[0, col].plot(fd, _db(one.dense[m][ch]), color=color, **style)
+                    axes[1, col].plot(fd, np.degrees(np.angle(one.dense[m][ch])), color=color,
+                                      **style)
+                axes[0, col].plot(f_meas, _db(one.measured[ch]), "o", color=color, ms=4,
+                                  mfc="none", label=ch.rpartition("_")[2])
+                axes[1, col].plot(f_meas, np.degrees(np.angle(one.measured[ch])), "o",
+                                  color=color, ms=4, mfc="none")
+            axes[0, col].set_title(point, fontsize=9)
+            axes[0, col].legend(fontsize=7)
+            axes[1, col].set_xlabel("rotational frequency f_r [Hz]")
+            for ax in axes[:, col]:
+                ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel(f"dB re 1 {one.units[next(iter(next(iter(points.values()))))]}")
+        axes[1, 0].set_ylabel("phase [deg]")
+        fig.suptitle(f"1x {kind}: measured (o), sampled-loop model (solid), continuous (dashed)"
+                     f"\n{one.reference}", fontsize=8)
+        fig.tight_layout()
+        paths.append(out_dir / f"one_x_{kind}.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths
+
+
+def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
+    plt, paths = _plt(), []
+    for bb in comp.broadband:
+        est = bb.estimate
+        sel = np.isin(est.freq_hz, bb.models["sampled"].freq_hz)
+        f = est.freq_hz[sel]
+        n = len(bb.outputs)
+        fig, axes = plt.subplots(3, n, figsize=(2.4 * n + 1.2, 7), sharex=True, squeeze=False)
+        for i, name in enumerate(bb.outputs):
+            ax = axes[:, i]
+            ax[0].plot(f, _db(est.h1[sel, i]), "k", lw=0.8, label="H1")
+            ax[0].plot(f, _db(est.h2[sel, i]), "0.6", lw=0.6, label="H2")
+            for m, style in STYLE.items():
+                r = bb.models[m].responses[name]
+                ax[0].plot(f, _db(r), color="C1" if m == "sampled" else "C0", label=m, **style)
+                ax[1].plot(f, np.degrees(np.angle(r)), color="C1" if m == "sampled" else "C0",
+                           **style)
+            ax[1].plot(f, np.degrees(np.angle(est.h1[sel, i])), "k", lw=0.8)
+            ax[2].plot(f, est.coherence[sel, i], "k", lw=0.8)
+            ax[2].axhline(MIN_COHERENCE, color="C3", lw=0.6)
+            ax[0].set_title(name, fontsize=9)
+            ax[2].set_xlabel("frequency [Hz]")
+            for a in ax:
+                a.grid(alpha=0.3)
+        axes[0, 0].legend(fontsize=7)
+        axes[0, 0].set_ylabel("dB re 1 SI unit / N")
+        axes[1, 0].set_ylabel("phase [deg]")
+        axes[2, 0].set_ylabel("coherence")
+        speed_hz = bb.speed_rad_s / (2 * np.pi)
+        fig.suptitle(f"broadband FRF from {comp.run.scenario.test_force.channel} at "
+                     f"{speed_hz:.3f} Hz (w_F frozen at {bb.w_F:.4g} rad/s)", fontsize=9)
+        fig.tight_layout()
+        paths.append(out_dir / f"broadband_{speed_hz:.1f}Hz.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths
+
+
+def plot_poles(comp: Comparison, out_dir: Path) -> list[Path]:
+    if not comp.poles:
+        return []
+    plt = _plt()
+    nyquist = 0.5 / comp.run.sample_period_s
+    fig, ax = plt.subplots(figsize=(7, 5))
+    for k, p in enumerate(comp.poles):
+        for m, marker in (("continuous", "x"), ("sampled", "o")):
+            s = p[m]
+            s = s[(s.imag >= 0) & (s.imag / (2 * np.pi) <= nyquist)]
+            ax.plot(s.real, s.imag / (2 * np.pi), marker, color=f"C{k}", ms=5, mfc="none",
+                    label=f"{m} at {p['speed_hz']:.2f} Hz")
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_xlabel("Re s [1/s] (symmetric log scale)")
+    ax.set_ylabel("Im s / 2 pi [Hz]")
+    ax.set_title("closed-loop poles with the run's damping (x continuous, o sampled loop)",
+                 fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    path = out_dir / "poles.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return [path]
+
+
+def _table(rows: list[list], head: list[str]) -> str:
+    cells = "".join(f"<th>{html.escape(h)}</th>" for h in head)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
+                   for r in rows)
+    return f"<table><tr>{cells}</tr>{body}</table>"
+
+
+def _fmt(v) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Path:
+    verdict = "PASS" if comp.passed else "FAIL"
+    checks = _table([[{True: "pass", False: "FAIL", None: "-"}[c.passed], c.name, _fmt(c.value),
+                      f"{c.tolerance:g} {c.unit}", c.detail] for c in comp.checks],
+                    ["verdict", "check (sampled-loop model)", "value", "tolerance", "detail"])
+    ref = _table([[c.name, _fmt(c.value), c.unit, c.detail] for c in comp.reference_metrics],
+                 ["metric (continuous model, no verdict)", "value", "unit", "detail"])
+    info = [["bag", data["bag"]], ["machine", data["machine"]],
+            ["sample rate", f"{data['sample_rate_hz']:g} Hz"], ["damping", data["damping"]],
+            ["initial state", data["initial_state"]]]
+    if "one_x" in data:
+        info += [["1x method", data["one_x"]["method"]],
+                 ["1x settings", json.dumps(data["one_x"]["settings"])],
+                 ["1x normalisation", data["one_x"]["reference"]]]
+    for bb in data["broadband"]:
+        info += [[f"broadband at {bb['speed_hz']:.3f} Hz",
+                  f"{bb['estimator']}; {json.dumps(bb['settings'])}; coherence >= "
+                  f"{bb['min_coherence']}; {bb['damping_model']}; input {bb['input']} "
+                  f"({bb['input_source']})"]]
+    res = [r for r in data.get("one_x", {}).get("resonances", []) if "measured_hz" in r]
+    res_rows = [[r["model"], r["channel"], f"{r['model_hz']:.4f}", f"{r['measured_hz']:.4f}",
+                 f"{r['freq_error_pct']:.3f}", f"{r['level_error_db']:.3f}"] for r in res]
+    poles = _table([[f"{q['speed_hz']:.3f}", f"{q['w_F_rad_s']:.4g}",
+                     f"{q['continuous_max_real_s']:.4g}", f"{q['sampled_max_abs_z']:.6f}",
+                     "yes" if q["sampled_stable"] else "NO"] for q in data["poles"]],
+                   ["speed [Hz]", "w_F [rad/s]", "continuous max Re s [1/s]",
+                    "sampled max |z|", "sampled loop stable"])
+    imgs = "".join(f"<h3>{html.escape(p.name)}</h3><img src='data:image/png;base64,"
+                   f"{base64.b64encode(p.read_bytes()).decode()}'/>" for p in pngs)
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in comp.notes)
+    page = f"""<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>rotor-avc compare: {html.escape(data['bag'])}</title>
+<style>body{{font-family:sans-serif;margin:1.5em;max-width:1400px}} table{{border-collapse:collapse;
+margin:0.6em 0}} td,th{{border:1px solid #bbb;padding:2px 6px;font-size:13px;text-align:left}}
+img{{max-width:100%}} .v{{font-size:20px;font-weight:bold}}</style></head><body>
+<h1>Comparison of a recorded run with the models</h1>
+<p class="v">{verdict}</p><p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>.</p>
+{checks}<h2>Continuous model (the papers' FRFs), for reference</h2>{ref}
+<h2>Run</h2>{_table(info, ["item", "value"])}
+<h2>Resonances (measured vs model)</h2>
+{_table(res_rows, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
+                   "peak error [dB]"])}
+<h2>Poles with the run's damping</h2>{poles}
+<h2>Notes</h2><ul>{notes or "<li>none</li>"}</ul><h2>Plots</h2>{imgs}
+<p>Files: frf.csv, metrics.json and the PNGs next to this page.</p></body></html>
+"""
+    path.write_text(page)
+    return path
+
+
+def write_report(comp: Comparison, out_dir) -> dict[str, Path]:
+    """Write the report folder; returns the paths by role."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = metrics(comp)
+    (out_dir / "metrics.json").write_text(json.dumps(data, indent=1))
+    csv_path = write_csv(comp, out_dir / "frf.csv")
+    pngs = ((plot_one_x(comp, out_dir) if comp.one_x else []) + plot_broadband(comp, out_dir)
+            + plot_poles(comp, out_dir))
+    page = write_html(comp, data, pngs, out_dir / "index.html")
+    return {"index": page, "metrics": out_dir / "metrics.json", "csv": csv_path, "plots": pngs}
