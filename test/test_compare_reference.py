@@ -48,7 +48,12 @@ def test_compare_passes_on_the_reference_bag(tmp_path, capsys):
     assert {"1x magnitude error away from resonances", "1x magnitude error at resonances",
             "1x band RMS error", "resonance frequency error",
             "resonance peak level error"} <= names
-    assert all(c["passed"] is True and c["value"] <= c["tolerance"] for c in data["checks"])
+    rated = [c for c in data["checks"] if c["passed"] is not None]
+    assert len(rated) >= 5
+    assert all(c["passed"] is True and c["value"] <= c["tolerance"] for c in rated)
+    # points still drifting within their dwell are listed, not rated
+    assert all(c["name"].startswith("1x points not in steady state") for c in data["checks"]
+               if c["passed"] is None)
     assert np.allclose(data["one_x"]["speeds_hz"], [103.0, 105.0, 107.0], rtol=1e-12)
     # at 1 kHz the digital loop differs visibly from the continuous one (reported, not rated)
     ref = {c["name"]: c for c in data["reference_model_metrics"]}

@@ -132,3 +132,19 @@ def test_errors_name_the_problem(call, problem):
     t, w, theta = stepped_run([20.0, 30.0], 0.5)
     with pytest.raises(ModelError, match=problem):
         call(t, w, theta, np.cos(theta))
+
+
+def test_drift_tells_a_settled_dwell_from_a_transient():
+    """The drift of a dwell is |Y(second half) - Y(first half)| / |Y|: ~0 in steady state, the
+    envelope change of a decaying transient otherwise."""
+    from rotor_avc.analysis.order_tracking import stepped_speed
+    fs, f = 2000.0, 10.0
+    t = np.arange(int(4 * fs)) / fs
+    theta = 2 * np.pi * f * t
+    speed = np.full_like(t, 2 * np.pi * f)
+    steady = np.cos(theta + 0.3)
+    sigma = 0.5                                      # 1/s: a lightly damped mode still ringing
+    ringing = steady + 0.5 * np.exp(-sigma * t) * np.cos(2 * np.pi * f * 1.01 * t)
+    track = stepped_speed(t, theta, speed, {"steady": steady, "ringing": ringing})
+    assert track.drift["steady"][0] < 1e-9
+    assert track.drift["ringing"][0] > 0.02

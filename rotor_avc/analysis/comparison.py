@@ -67,6 +67,10 @@ MIN_COHERENCE = 0.98
 MIN_BROADBAND_SAMPLES = 2048
 RUNUP_REVOLUTIONS = 8
 DENSE_POINTS = {"continuous": 1500, "sampled": 400}
+#: a dwell point whose 1x phasor still changes by more than this (relative) between the two
+#: halves of its analysis window is not in steady state: left out of the 1x checks and listed
+#: (lightly damped open-loop modes need dwells of many time constants)
+SETTLE_TOL = 0.02
 
 
 @dataclass
@@ -100,6 +104,8 @@ class OneX:
     dense: dict[str, dict[str, np.ndarray]]
     resonances: list[dict] = field(default_factory=list)
     channels: dict[str, dict] = field(default_factory=dict)  # model -> channel metrics
+    #: channel -> relative drift of the 1x phasor within its window (stepped dwells only)
+    drift: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
@@ -221,11 +227,14 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
     order = np.argsort(track.speed_rad_s)
     speeds = track.speed_rad_s[order]
     measured = {ch: track.phasors[ch][order] for ch in channels}
+    drift = ({ch: track.drift[ch][order] for ch in channels} if method == "stepped-speed dwells"
+             else {})
     model = _unbalance_models(run, loops, speeds, u_ref, channels)
     dense_speeds = {m: _dense_speeds(run, speeds, m) for m in loops}
     dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, channels)[m]
              for m in loops}
-    one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense)
+    one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense,
+               drift=drift)
     _one_x_metrics(one)
     return one
 
@@ -242,6 +251,8 @@ def _one_x_metrics(one: OneX) -> None:
                 one.channels[m][ch] = {"skipped": "the model's response is zero"}
                 continue
             valid = np.abs(mod) >= peak * 10 ** (-FLOOR_DB / 20)
+            unsettled = one.drift[ch] > SETTLE_TOL if ch in one.drift else np.zeros_like(valid)
+            valid &= ~unsettled
             peaks = [p for p in model_peaks(f_dense, dense)
                      if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
             at = np.zeros(f_meas.shape, bool)
@@ -264,6 +275,7 @@ def _one_x_metrics(one: OneX) -> None:
             one.channels[m][ch] = {
                 "error_db": err, "phase_error_deg": np.where(valid, phase, np.nan),
                 "at_resonance": at, "checked_points": int(valid.sum()),
+                "unsettled": unsettled,
                 "band_rms_db": float(np.sqrt(np.nanmean(err ** 2))) if valid.any() else None}
 
 
@@ -303,6 +315,15 @@ def _one_x_checks(one: OneX, m: str) -> list[Check]:
         value, detail = _worst(items, what)
         out.append(Check(name, value, tol, unit, None if value is None else value <= tol,
                          detail))
+    left_out = [(100 * one.drift[ch][k], f"{ch} at {f[k]:.3f} Hz")
+                for ch, c in one.channels[m].items() if "unsettled" in c
+                for k in np.flatnonzero(c["unsettled"])]
+    if left_out:
+        value, detail = _worst(left_out, "points")
+        out.append(Check(f"1x points not in steady state, left out ({len(left_out)})", value,
+                         100 * SETTLE_TOL, "% drift", None,
+                         detail + " -- the 1x phasor still changed within the dwell; dwell "
+                                  "longer to check these"))
     return out
 
 

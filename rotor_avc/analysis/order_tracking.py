@@ -21,7 +21,7 @@ and the window mean is subtracted first so that an offset cannot leak in the sam
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
@@ -41,6 +41,9 @@ class OrderTrack:
     revolutions: np.ndarray             # whole revolutions per window
     samples: np.ndarray                 # samples per window
     unbalance: complex
+    #: per channel and window: |Y(second half) - Y(first half)| / |Y| over the window's whole
+    #: revolutions split in two -- how far a dwell still is from steady state (NaN: < 2 revs)
+    drift: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def speed_hz(self) -> np.ndarray:
@@ -105,16 +108,27 @@ def _window_before(theta: np.ndarray, first: int, last: int) -> tuple[int, int, 
 def _track(t, theta, ys, u, windows) -> OrderTrack:
     speeds, times, revs, samples = [], [], [], []
     phasors = {name: [] for name in ys}
+    drift = {name: [] for name in ys}
     for k0, k1, n in windows:
         speeds.append((theta[k1] - theta[k0]) / (t[k1] - t[k0]))
         times.append(0.5 * (t[k0] + t[k1]))
         revs.append(n)
         samples.append(k1 - k0)
+        half = n // 2
+        km = int(np.searchsorted(theta[k0:k1], theta[k0] + TWO_PI * half)) + k0
+        k2 = int(np.searchsorted(theta[k0:k1], theta[k1] - TWO_PI * half)) + k0
         for name, y in ys.items():
-            phasors[name].append(phasor(theta[k0:k1], y[k0:k1]) / u)
+            whole = phasor(theta[k0:k1], y[k0:k1])
+            phasors[name].append(whole / u)
+            if half < 1 or abs(whole) == 0:
+                drift[name].append(np.nan)
+                continue
+            first, last = phasor(theta[k0:km], y[k0:km]), phasor(theta[k2:k1], y[k2:k1])
+            drift[name].append(abs(last - first) / abs(whole))
     return OrderTrack(np.array(speeds), np.array(times),
                       {name: np.array(v, complex) for name, v in phasors.items()},
-                      np.array(revs, int), np.array(samples, int), u)
+                      np.array(revs, int), np.array(samples, int), u,
+                      {name: np.array(v, float) for name, v in drift.items()})
 
 
 def dwells(speed_rad_s, rel_tol: float = 1e-6) -> list[tuple[int, int]]:
