@@ -157,11 +157,13 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
     assert any("stale measurement" in w for w in warnings)
 
 
-def test_realtime_mode_reports_loop_timing(tmp_path):
+@pytest.mark.parametrize("policy", ["hold", "zero"])
+def test_realtime_mode_reports_loop_timing(tmp_path, policy):
     path = tmp_path / "rt.yaml"
     path.write_text(open(scenario_file(tmp_path, "foot_mount_case3", 20.0, 0.5)).read()
                     .replace("sample_rate_hz: 5000.0", "sample_rate_hz: 1000.0"))
-    plant = PlantSimulator("plant_rt", parameter_overrides=params(scenario=str(path), mode="realtime"))
+    plant = PlantSimulator("plant_rt", parameter_overrides=params(scenario=str(path), mode="realtime",
+                                                                 fault_policy=policy))
     ctrls = [FootController(f"fc_rt_{f}", parameter_overrides=params(scenario=str(path), foot_id=f))
              for f in FEET]
     lis = Listener("listener_rt")

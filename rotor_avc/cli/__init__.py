@@ -16,7 +16,7 @@ COMMANDS = [
     "poles", "frf", "controller", "simulate", "compare",     # any machine
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
     "demo",                                                  # the main job
-                                                   # bags into the ROS graph
+    "replay",                                                # bags into the ROS graph
 ]
 
 

@@ -25,10 +25,16 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     comp = compare_bag(args.bag)
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
+    report(comp, args.bag, out)
+    return 0 if comp.passed else 1
+
+
+def report(comp, bag, out: Path) -> dict:
+    """Write the report folder and print the summary; returns the report's files."""
     files = write_report(comp, out)
     run_ = comp.run
     sc = run_.scenario
-    print(f"{args.bag}: {sc.machine.plant.name}, {1 / run_.sample_period_s:g} Hz, "
+    print(f"{bag}: {sc.machine.plant.name}, {1 / run_.sample_period_s:g} Hz, "
           f"{sc.damping.describe()}")
     if comp.one_x is not None:
         speeds = ", ".join(f"{f:g}" for f in comp.one_x.speed_rad_s / (2 * math.pi))
@@ -44,4 +50,4 @@ def run(args) -> int:
     for note in comp.notes:
         print(f"  note: {note}")
     print(f"{ACCEPTANCE}\n-> {'PASS' if comp.passed else 'FAIL'}; report: {files['index']}")
-    return 0 if comp.passed else 1
+    return files

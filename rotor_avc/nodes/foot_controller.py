@@ -69,10 +69,10 @@ class FootController(Node):
         ns = self.p["namespace"]
         self.kind = self.ctrl.feedback
         self.force = m.Force(foot, self.axis)
-        self.pub = self.create_publisher(type(self.force.msg), m.foot_topic(foot, "actuator_force", ns),
-                                         m.LOCKSTEP_QOS)
+        self.pub = self.create_publisher(m.STAMPED_TYPES["actuator_force"],
+                                         m.foot_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
         self.create_subscription(m.MEASUREMENT_TYPES[self.kind], m.foot_topic(foot, self.kind, ns),
-                                 self._on_measurement, m.LOCKSTEP_QOS)
+                                 self._on_measurement, m.LOCKSTEP_QOS, raw=True)
         self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
@@ -81,10 +81,9 @@ class FootController(Node):
         self.faults = {"not_finite": 0, "stale": 0, "repeated": 0}
         self.last_fault = ""
 
-    def _on_measurement(self, msg) -> None:
+    def _on_measurement(self, data: bytes) -> None:
         self.timing.start()
-        stamp = m.stamp_ns(msg.header.stamp)
-        value = m.measurement_value(self.kind, msg, self.axis)
+        stamp, value = m.stamped_value(data, self.axis)          # raw: see messages.StampedVector
         if stamp == self.last_stamp:
             self.faults["repeated"] += 1
             force = self.last_force

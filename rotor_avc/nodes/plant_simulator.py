@@ -14,6 +14,11 @@ reproduces ``rotor-avc simulate`` exactly.
 * **realtime**: steps on a wall-clock timer at the sample period with the latest forces received;
   a controller silent for longer than ``controller_timeout_s`` gets the fault policy.
 
+Recording: with ``wait_for_recorder: <node name>`` the plant publishes sample 0 only when that
+recorder (rotor_avc.nodes.recorder) subscribes to every topic of the run and the plant's own
+publishers have matched its subscriptions, so the bag holds every sample (topics are volatile:
+a message published before a subscriber matched is never delivered to it).
+
 Every node reports its loop timing and faults on ``/diagnostics`` once per second (wall clock).
 With ``result_path`` set, the run's time series is saved there at the end (``.npz``, the format
 of rotor_avc.sim.timeseries, or ``.mcap`` in the bag format).
@@ -27,7 +32,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray
 
-from ..errors import ModelError, RotorAvcError
+from ..errors import RotorAvcError
 from ..sim.loop import forces_from_answers, start, timeseries_from_run
 from ..sim.scenario import load_scenario
 from . import messages as m
@@ -48,11 +53,15 @@ PARAMS = COMMON_PARAMS + (
           "published again", minimum=1e-3, maximum=3600.0),
     Param("fault_policy", "hold", "force of an absent controller: hold its last force or zero",
           choices=POLICIES),
-    Param("discovery_timeout_s", 30.0, "wall time to wait for every controller to connect",
+    Param("discovery_timeout_s", 30.0, "wall time to wait for every controller (and the awaited "
+          "recorder) to connect",
           minimum=0.0, maximum=3600.0),
     Param("balancer", False, "lockstep: also wait for the balancer's command at every sample"),
     Param("result_path", "", "save the run's time series here at the end (.npz or .mcap)"),
     Param("exit_when_done", True, "end the node when the run is complete"),
+    Param("wait_for_recorder", "", "name of a recorder node that must subscribe to every topic "
+          "of the run (the plant's, the controllers' forces, the balancer's) before sample 0, "
+          "so the bag misses nothing; empty: do not wait"),
 )
 
 
@@ -100,7 +109,8 @@ class PlantSimulator(Node):
                                self.p["resend_after_s"])
         for foot in self.feedback:
             self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
-                                     lambda msg, f=foot: self._on_force(f, msg), m.LOCKSTEP_QOS)
+                                     lambda data, f=foot: self._on_force(f, data), m.LOCKSTEP_QOS,
+                                     raw=True)
         self.correction_names = [f"{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
         if self.p["balancer"]:
             self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
@@ -127,15 +137,35 @@ class PlantSimulator(Node):
     def _connected(self) -> bool:
         ns = self.p["namespace"]
         for pub, msg, idx in self.meas:
-            foot = msg.msg.header.frame_id[len("foot_"):]
-            if foot in self.feedback and pub.get_subscription_count() < 1:
+            if msg.foot_id in self.feedback and pub.get_subscription_count() < 1:
                 return False
         for foot in self.feedback:
             if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
                 return False
         if self.p["balancer"] and self.count_publishers(m.topic("balancer/command", ns)) < 1:
             return False
-        return True
+        return not self._unrecorded()
+
+    def _unrecorded(self) -> list[str]:
+        """Topics of the run the ``wait_for_recorder`` node does not receive yet: it has no
+        subscription on them, or (the plant's own topics) a listed subscription is not matched
+        to the plant's publisher yet. Empty when no recorder is awaited."""
+        name = self.p["wait_for_recorder"]
+        if not name:
+            return []
+        ns = self.p["namespace"]
+        own = [pub for pub, _, _ in self.meas] + [self.pub_joint, self.pub_clock, self.pub_obs]
+        others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.feedback]
+        if self.p["balancer"]:
+            others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
+        missing = []
+        for topic, pub in [(p.topic_name, p) for p in own] + [(t, None) for t in others]:
+            infos = self.get_subscriptions_info_by_topic(topic)
+            names = {i.node_name for i in infos} | {
+                i.node_namespace.rstrip("/") + "/" + i.node_name for i in infos}
+            if name not in names or (pub is not None and pub.get_subscription_count() < len(infos)):
+                missing.append(topic)
+        return missing
 
     def _start(self) -> None:
         sc = self.scenario
@@ -148,8 +178,10 @@ class PlantSimulator(Node):
 
     # -- lockstep -------------------------------------------------------------------------------
     def _publish_sample(self, begin: bool = True) -> None:
-        """Publish sample k (again, with ``begin=False``: a resend of the same stamp)."""
-        if begin:
+        """Publish sample k (again, with ``begin=False``: a resend of the same stamp). In
+        lockstep this is the timed loop iteration; real time times its whole tick."""
+        timed = begin and self.p["mode"] == "lockstep"
+        if timed:
             self.timing.start()
         k, y = self.k, self.y
         t_ns = m.sample_ns(k, self.T)
@@ -162,17 +194,18 @@ class PlantSimulator(Node):
         self.pub_obs.publish(self.observables.fill([k * self.T] + y.tolist()))
         if begin:
             self.book.begin(t_ns, time.monotonic())
+        if timed:
             self.timing.stop()
 
-    def _on_force(self, foot: str, msg: WrenchStamped) -> None:
-        value = m.force_value(msg, self.axis[foot])
+    def _on_force(self, foot: str, data: bytes) -> None:
+        stamp, value = m.stamped_value(data, self.axis[foot])   # raw: see messages.StampedVector
         self.last_force_time[foot] = time.monotonic()
         if self.p["mode"] == "realtime":
             if not self.book.responders[foot].present:
                 self.book.responders[foot].present = True
             self.book.responders[foot].last_value = value
             return
-        if self.started and not self.finished and self.book.receive(foot, m.stamp_ns(msg.header.stamp), value):
+        if self.started and not self.finished and self.book.receive(foot, stamp, value):
             self._advance()
 
     def _on_balancer(self, msg: Float64MultiArray) -> None:
@@ -218,8 +251,15 @@ class PlantSimulator(Node):
             elif now - self.t_created > self.p["discovery_timeout_s"]:
                 missing = [f for f in self.feedback if self.count_publishers(
                     m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
-                self._fault(f"controllers did not connect within {self.p['discovery_timeout_s']:g}"
-                            f" s: {missing}; starting with the fault policy for them")
+                unrecorded = self._unrecorded()
+                if missing or not unrecorded:
+                    self._fault(f"controllers did not connect within "
+                                f"{self.p['discovery_timeout_s']:g} s: {missing}; starting with "
+                                "the fault policy for them")
+                if unrecorded:
+                    self._fault(f"recorder {self.p['wait_for_recorder']!r} did not subscribe "
+                                f"within {self.p['discovery_timeout_s']:g} s to {unrecorded}; "
+                                "starting without recording them")
                 self._start()
             return
         if self.p["mode"] == "realtime":
@@ -248,9 +288,9 @@ class PlantSimulator(Node):
                 r.faults += 1
                 r.fault_reason = f"silent for more than {self.p['controller_timeout_s']:g} s"
                 self._fault(f"{foot}: {r.fault_reason}; policy: {self.book.policy}")
-        u = forces_from_answers(self.stepper, {f: self.book.value(f, 0.0) for f in self.feedback})
-        self._publish_sample()
+        u = forces_from_answers(self.stepper, {f: self._latest_force(f) for f in self.feedback})
         self.timing.start()
+        self._publish_sample()
         self.Y[self.k] = self.y
         self.U[self.k] = u
         self.y = self.stepper.step(u)
@@ -258,6 +298,13 @@ class PlantSimulator(Node):
         self.timing.stop()
         if self.k >= self.n_steps:
             self._finish()
+
+    def _latest_force(self, foot: str) -> float:
+        """Real time: the latest force a present controller sent; the policy for an absent one."""
+        r = self.book.responders[foot]
+        if r.last_value is None or (not r.present and self.book.policy == "zero"):
+            return 0.0
+        return r.last_value
 
     # -- end, faults, diagnostics ---------------------------------------------------------------
     def _fault(self, text: str) -> None:

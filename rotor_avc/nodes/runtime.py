@@ -97,21 +97,29 @@ COMMON_PARAMS = (
 )
 
 
-def make_executor(kind: str):
+def make_executor(kind: str, context=None):
+    """The executor ``kind`` (one of EXECUTORS) in ``context`` (default: rclpy's)."""
     if kind == "events":
         from rclpy.experimental import EventsExecutor
-        return EventsExecutor()
+        return EventsExecutor(context=context)
     if kind == "multi_threaded":
-        return MultiThreadedExecutor()
-    return SingleThreadedExecutor()
+        return MultiThreadedExecutor(context=context)
+    return SingleThreadedExecutor(context=context)
 
 
 class _Stop(BaseException):
-    """Raised by the SIGINT/SIGTERM handler: unwinds to run_node's clean shutdown."""
+    """Raised by a second SIGINT/SIGTERM: unwinds to run_node's clean shutdown at once."""
 
 
-def _stop(signum, frame):
-    raise _Stop(signum)
+_STOP = {"requested": False}
+
+
+def _on_signal(signum, frame):
+    """The first SIGINT/SIGTERM only asks the spin loop to stop (never interrupting a callback
+    or a file write); a second one stops at once."""
+    if _STOP["requested"]:
+        raise _Stop(signum)
+    _STOP["requested"] = True
 
 
 def run_node(factory: Callable[[], Node], args=None) -> int:
@@ -119,10 +127,12 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
 
     A :class:`RotorAvcError` while building (bad parameter or config) is printed as one line and
     exits with status 2; SIGINT/SIGTERM -- at any time, also while the node is still being
-    built -- end the run through the same clean shutdown (files closed) with status 0."""
+    built -- end the run after the current callback through the same clean shutdown (files
+    closed) with status 0."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    _STOP["requested"] = False
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _stop)
+        signal.signal(sig, _on_signal)
     node = None
     status = 0
     try:
@@ -130,7 +140,8 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         executor = make_executor(getattr(node, "executor_kind", "events"))
         executor.add_node(node)
         try:
-            while rclpy.ok() and not getattr(node, "exit_requested", False):
+            while (rclpy.ok() and not _STOP["requested"]
+                   and not getattr(node, "exit_requested", False)):
                 executor.spin_once(timeout_sec=0.1)
         finally:
             executor.shutdown()

@@ -1,0 +1,106 @@
+"""``rotor-avc replay``: publish a bag's messages into the ROS graph (rotor_avc.nodes.replay).
+
+The bag is checked first, without ROS (a truncated file, an unknown schema, no configuration
+metadata, an empty bag: one-line error, exit status 2); rclpy is imported only then, so the rest
+of the command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
+foot controller re-driven with the recorded foot accelerations) are compared with the recorded
+answers of the same stamps, and the exit status is 1 when any differs by more than TOL.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..bag.reader import BagReader
+from ..errors import RotorAvcError
+from .common import nonnegative_float
+
+NAME = "replay"
+HELP = ("Publish a bag's recorded messages into the ROS graph, raw, with their recorded timing "
+        "(scaled by --rate) or lockstep as fast as the graph answers (--fast); compare the "
+        "answers with the recorded ones (--check).")
+EXAMPLE = ("rotor-avc replay bags/case3.mcap --fast --topics /avc/foot/DL/acceleration "
+           "--check 1e-12   # with foot_controller DL running")
+
+
+def pair(text: str) -> tuple[str, str]:
+    """``a:=b`` -> (a, b)."""
+    a, sep, b = text.partition(":=")
+    if not sep or not a or not b:
+        raise argparse.ArgumentTypeError(f"{text!r} is not FROM:=TO (e.g. /avc/clock:=/clock)")
+    return a, b
+
+
+def positive_float(text: str) -> float:
+    value = nonnegative_float(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def add_arguments(p) -> None:
+    p.add_argument("bag", type=Path, help="the .mcap bag (rosbag2 MCAP profile)")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--rate", type=positive_float, default=1.0,
+                      help="timed replay at RATE x the recorded speed (default 1)")
+    mode.add_argument("--fast", action="store_true",
+                      help="lockstep: publish one log time's messages, wait for the answers "
+                           "(foot measurement -> that foot's actuator_force, plant/observables "
+                           "-> balancer/command, stamped alike; only from nodes that publish "
+                           "them), then the next")
+    p.add_argument("--topics", nargs="+", metavar="TOPIC",
+                   help="replay only these bag topics (default: every topic with messages)")
+    p.add_argument("--remap", nargs="+", type=pair, action="extend", default=[],
+                   metavar="FROM:=TO", help="publish bag topic FROM as TO")
+    p.add_argument("--wait-for", nargs="+", type=pair, action="extend", default=[],
+                   metavar="TRIGGER:=ANSWER",
+                   help="--fast: replace the default wait-for rules: after TRIGGER (a published "
+                        "topic) wait for ANSWER stamped alike")
+    p.add_argument("--check", type=nonnegative_float, metavar="TOL",
+                   help="fail (exit 1) unless every answer equals the recorded one of the same "
+                        "stamp within TOL (absolute, in the fields' units)")
+    p.add_argument("--discovery-timeout", type=nonnegative_float, default=3.0, metavar="S",
+                   help="wait at most S seconds for subscribers before starting (default 3)")
+    p.add_argument("--answer-timeout", type=positive_float, default=5.0, metavar="S",
+                   help="--fast: give up when an answer takes longer than S seconds (default 5)")
+    p.add_argument("--executor", choices=("events", "single_threaded"), default="events",
+                   help="rclpy executor (default events)")
+
+
+def run(args) -> int:
+    with BagReader(args.bag, require_config=True, require_messages=True) as reader:
+        try:
+            from ..nodes import replay as R          # rclpy: imported only here
+        except ImportError as exc:
+            raise RotorAvcError(f"replay needs ROS 2 Jazzy's rclpy ({exc}) -- fix: install the "
+                                "`ros` extra or source a ROS 2 installation") from None
+        rules = ([R.AnswerRule.exact(a, b) for a, b in args.wait_for] if args.wait_for
+                 else R.DEFAULT_RULES)
+        plan = R.plan_replay(reader, args.topics, dict(args.remap), rules)
+        print(f"replay {args.bag}: {len(plan.topics)} topic(s), "
+              + ("lockstep (--fast)" if args.fast else f"timed x{args.rate:g}"))
+        result = R.replay_bag(reader, plan, executor_kind=args.executor, fast=args.fast,
+                              rate=args.rate, discovery_timeout_s=args.discovery_timeout,
+                              answer_timeout_s=args.answer_timeout)
+        sent = sum(result.published.values())
+        print(f"published {sent} messages at {result.samples} log times in {result.wall_s:.2f} s"
+              f" ({result.samples / max(result.wall_s, 1e-9):.0f} log times/s)")
+        for trigger, answer in result.waited_for.items():
+            print(f"  {trigger} -> {answer}")
+        for trigger in result.unanswered:
+            print(f"  {trigger}: no node publishes {plan.answers[trigger].topic}; not awaited")
+        checks = R.compare_answers(reader, plan, result)
+    for c in checks:
+        print(f"{c.topic}: {c.answers} answers, {c.compared} compared with {c.recorded_topic}: "
+              f"max |difference| {c.max_abs_diff:.3g} (largest recorded value "
+              f"{c.max_abs_value:.3g}); {c.unmatched} without a recorded message, "
+              f"{c.unanswered} triggers unanswered")
+    if args.check is None:
+        return 0
+    if not checks:
+        print("check: FAIL -- no answers to compare (no node answered the replayed topics)")
+        return 1
+    failed = [c.topic for c in checks if not c.passed(args.check)]
+    print(f"check (tolerance {args.check:g}): " + (f"FAIL on {', '.join(failed)}" if failed
+                                                     else "every answer equals the recording"))
+    return 1 if failed else 0

@@ -1,0 +1,412 @@
+"""Replaying a bag into the ROS graph (the ROS part of ``rotor-avc replay``, rotor_avc.cli.replay).
+
+The recorded messages are published *raw* (their CDR bytes, never decoded and re-encoded), in
+log-time order, on their topics -- all of them or a selection, each optionally renamed -- in one of
+two modes:
+
+* **timed** (default): with the recorded timing scaled by ``rate``: the message logged at
+  ``t`` goes out at wall time ``t0 + (t - t_first) / rate`` (an absolute schedule: no drift; a
+  message already due goes out at once);
+* **lockstep** (``fast``): sample by sample, as fast as the graph answers: publish every message
+  of one log time, wait until the answers they trigger have arrived, then the next log time.
+
+The wait-for rule (lockstep): a replayed *trigger* topic is answered by an *answer* topic whose
+message carries the trigger's sim time (header stamp, or ``time_s`` of a labelled array;
+rotor_avc.nodes.messages.raw_time_reader). The default rules (:data:`DEFAULT_RULES`) are the
+package's lockstep protocol (rotor_avc.nodes.lockstep):
+
+* ``<ns>/foot/<id>/acceleration|velocity|displacement`` -> ``<ns>/foot/<id>/actuator_force``
+  (the foot controller; one answer per foot and stamp, also when a foot has two signals);
+* ``<ns>/plant/observables`` -> ``<ns>/balancer/command`` (the balancer, which also takes
+  ``rotor/joint_state`` of the same sample).
+
+An answer is awaited only when (1) its trigger is replayed, (2) the answer topic is not itself
+replayed, and (3) some node publishes the answer topic when replay starts: a foot without a live
+controller is not waited for (it is listed as unanswered). As the plant does, replay publishes an
+unanswered trigger again after :data:`RESEND_AFTER_S` (the package's nodes answer a repeated
+stamp from their cache without stepping twice); an answer missing after ``answer_timeout_s``
+stops replay with a :class:`ReplayError` naming the topic and the stamp. Other rules can replace
+the defaults (:class:`AnswerRule.exact`).
+
+Start: replay first waits (at most ``discovery_timeout_s``) until every replayed topic has a
+subscriber and every subscription the graph lists is matched to its publisher, then subscribes to
+the live answer topics, waits until they are matched too, and lets :data:`SETTLE_S` pass, so
+the first messages are not lost (topics are volatile). In both modes the answers are collected;
+:func:`compare_answers` checks them against the bag's recorded answers (the regression check of a
+controller: same filter, same inputs -> the same forces).
+"""
+from __future__ import annotations
+
+import importlib
+import itertools
+import re
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import rclpy
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from ..bag.reader import BagReader, _numeric_leaves
+from ..errors import RotorAvcError
+from . import messages as m
+from .runtime import make_executor
+
+_NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+#: after our side matched: time for the other sides to match us too (DDS matches each side on
+#: its own; a message sent before the subscriber's side matched is not delivered to it)
+SETTLE_S = 0.2
+#: lockstep: an unanswered trigger is published again after this wall time
+RESEND_AFTER_S = 0.25
+
+
+class ReplayError(RotorAvcError):
+    """Replay cannot go on as asked: the message names the topic and the fix."""
+
+
+@dataclass(frozen=True)
+class AnswerRule:
+    """``pattern`` (a regular expression over a whole published topic name, with named groups)
+    -> the answer topic ``answer`` (a format string over those groups)."""
+
+    pattern: str
+    answer: str
+
+    def match(self, topic: str) -> str | None:
+        found = re.fullmatch(self.pattern, topic)
+        return self.answer.format(**found.groupdict()) if found else None
+
+    @classmethod
+    def exact(cls, trigger: str, answer: str) -> "AnswerRule":
+        """``trigger`` is answered on ``answer`` (both full topic names)."""
+        return cls(re.escape(trigger), answer.replace("{", "{{").replace("}", "}}"))
+
+
+DEFAULT_RULES = (
+    AnswerRule(r"(?P<ns>.*)/foot/(?P<id>[^/]+)/(acceleration|velocity|displacement)",
+               "{ns}/foot/{id}/actuator_force"),
+    AnswerRule(r"(?P<ns>.*)/plant/observables", "{ns}/balancer/command"),
+)
+
+
+@dataclass(frozen=True)
+class Answer:
+    topic: str          # where the answer is published (graph name)
+    recorded: str       # the bag's topic holding the recorded answers (for the comparison)
+
+
+@dataclass
+class ReplayPlan:
+    """What a replay publishes: bag topic -> published name and message class; which answer
+    each published trigger may get."""
+
+    topics: dict[str, str]
+    classes: dict[str, type]
+    answers: dict[str, Answer]
+
+
+def plan_replay(reader: BagReader, topics=None, remap=None, rules=DEFAULT_RULES) -> ReplayPlan:
+    """Check the selection against the bag and the installed message types (ReplayError or
+    BagError naming the topic and the fix)."""
+    path = str(reader.path)
+    info = reader.topics
+    remap = dict(remap or {})
+    selected = list(dict.fromkeys(topics)) if topics else [t for t, i in info.items() if i.count]
+    unknown = [t for t in selected + list(remap) if t not in info]
+    if unknown:
+        raise ReplayError(f"{path}: no topic {', '.join(unknown)} in the bag -- fix: use one of "
+                          + ", ".join(sorted(info)))
+    stray = [t for t in remap if t not in selected]
+    if stray:
+        raise ReplayError(f"{path}: --remap names {', '.join(stray)}, which is not replayed -- "
+                          "fix: add it to --topics or drop the remap")
+    bad = [name for name in remap.values() if not _NAME.fullmatch(name)]
+    if bad:
+        raise ReplayError(f"remap target {bad[0]!r} is not an absolute topic name -- fix: e.g. "
+                          "/avc_replay/foot/DL/acceleration")
+    empty = [t for t in selected if info[t].count == 0]
+    if empty:
+        raise ReplayError(f"{path}: topic {empty[0]} holds no messages -- fix: select topics "
+                          "with messages (see `--topics`)")
+    published = {t: remap.get(t, t) for t in selected}
+    if len(set(published.values())) != len(published):
+        raise ReplayError("two replayed topics would be published under one name -- fix: "
+                          "remap them to distinct names")
+    for t in selected:
+        reader.codec(t)            # BagError for a schema that cannot be decoded (unknown)
+    classes = {t: _import_class(info[t].msg_type, f"{path}: topic {t}") for t in selected}
+    answers = {}
+    for bag_topic, topic in published.items():
+        for rule in rules:
+            answer = rule.match(topic)
+            if answer is not None:
+                if answer not in published.values():
+                    answers[topic] = Answer(answer, rule.match(bag_topic) or answer)
+                break
+    return ReplayPlan(published, classes, answers)
+
+
+def _import_class(msg_type: str, what: str) -> type:
+    """The rclpy message class of ``pkg/msg/Type`` (ReplayError when it is not installed)."""
+    pkg, _, name = msg_type.rpartition("/msg/")
+    try:
+        return getattr(importlib.import_module(f"{pkg}.msg"), name)
+    except (ImportError, AttributeError, ValueError):
+        raise ReplayError(f"{what}: message type {msg_type} is not installed here -- fix: "
+                          "source the ROS environment that provides it, or leave the topic out "
+                          "with --topics") from None
+
+
+@dataclass
+class ReplayResult:
+    """What a replay did and received."""
+
+    mode: str
+    published: dict[str, int]                   # published topic -> messages sent
+    samples: int                                # log times replayed
+    wall_s: float
+    waited_for: dict[str, str]                  # trigger -> answer topic (live answers)
+    unanswered: list[str]                       # triggers whose answer topic no node publishes
+    resends: int = 0                            # lockstep: triggers published again
+    answers: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
+    missing: dict[str, int] = field(default_factory=dict)         # answer -> stamps unanswered
+
+
+class Replayer(Node):
+    """Publishes a bag's messages (see the module docstring); spun by the caller's executor."""
+
+    def __init__(self, reader: BagReader, plan: ReplayPlan, name: str = "rotor_avc_replay",
+                 **kwargs):
+        super().__init__(name, **kwargs)
+        self.reader, self.plan = reader, plan
+        self.pubs = {t: self.create_publisher(plan.classes[t], out, m.LOCKSTEP_QOS)
+                     for t, out in plan.topics.items()}
+        self.stamp_of = {t: m.raw_time_reader(reader.topics[t].msg_type) for t in plan.topics}
+        self.live: dict[str, Answer] = {}
+        self.answers: dict[str, list[tuple[int, bytes]]] = {}
+        self.awaiting: dict[str, set[int]] = {}
+        self.connected = False
+
+    # -- start ----------------------------------------------------------------------------------
+    def connect(self, executor, discovery_timeout_s: float) -> None:
+        """Wait for subscribers of the replayed topics, then subscribe to the live answers."""
+        t_end = time.monotonic() + discovery_timeout_s
+        _spin_until(executor, self._subscribed, t_end)
+        graph = dict(self.get_topic_names_and_types())
+        self.live = {trigger: a for trigger, a in self.plan.answers.items()
+                     if self.count_publishers(a.topic) > 0 and a.topic in graph}
+        subs = {}
+        for topic in {a.topic for a in self.live.values()}:
+            msg_type = graph[topic][0]
+            cls = _import_class(msg_type, f"answer topic {topic}")
+            self.answers[topic] = []
+            self.awaiting[topic] = set()
+            subs[topic] = self.create_subscription(
+                cls, topic, self._on_answer(topic, m.raw_time_reader(msg_type)),
+                m.LOCKSTEP_QOS, raw=True)
+        _spin_until(executor, lambda: all(s.get_publisher_count() >= self.count_publishers(t)
+                                          for t, s in subs.items()),
+                    time.monotonic() + max(discovery_timeout_s, 1.0))
+        _spin_until(executor, lambda: False, time.monotonic() + SETTLE_S)
+        self.connected = True
+
+    def _subscribed(self) -> bool:
+        """Every replayed topic has a subscriber, and every subscription the graph lists is
+        matched to our publisher."""
+        for pub in self.pubs.values():
+            n = pub.get_subscription_count()
+            if n < 1 or n < len(self.get_subscriptions_info_by_topic(pub.topic_name)):
+                return False
+        return True
+
+    def _on_answer(self, topic: str, time_of):
+        answers, awaiting = self.answers[topic], self.awaiting[topic]
+
+        def on_raw(data: bytes) -> None:
+            stamp = time_of(data)
+            answers.append((stamp, data))
+            awaiting.discard(stamp)
+
+        return on_raw
+
+    # -- publishing -----------------------------------------------------------------------------
+    def _publish(self, msg) -> None:
+        """Publish one recorded message; note the answer it awaits (for its own stamp)."""
+        self.pubs[msg.topic].publish(msg.data)
+        self.published[msg.topic] += 1
+        answer = self.live.get(self.plan.topics[msg.topic])
+        if answer is not None:
+            self.awaiting[answer.topic].add(self._stamp(msg))
+
+    def _resend(self, group) -> None:
+        """Publish again the messages of ``group`` whose answer has not arrived."""
+        for msg in group:
+            answer = self.live.get(self.plan.topics[msg.topic])
+            if answer is not None and self._stamp(msg) in self.awaiting[answer.topic]:
+                self.pubs[msg.topic].publish(msg.data)
+                self.resends += 1
+
+    def _stamp(self, msg) -> int:
+        stamp = self.stamp_of[msg.topic](msg.data)
+        return msg.time_ns if stamp is None else stamp
+
+    def run(self, executor, *, fast: bool = False, rate: float = 1.0,
+            discovery_timeout_s: float = 3.0, answer_timeout_s: float = 5.0) -> ReplayResult:
+        """Replay the whole plan (after :meth:`connect`, called here unless the caller did);
+        ``executor`` spins this node (and may spin others)."""
+        if not fast and not (rate > 0 and np.isfinite(rate)):
+            raise ReplayError(f"rate {rate} must be a positive number -- fix: e.g. --rate 0.5")
+        if not self.connected:
+            self.connect(executor, discovery_timeout_s)
+        self.published = dict.fromkeys(self.plan.topics, 0)
+        self.resends = 0
+        t_start = time.monotonic()
+        samples = 0
+        messages = self.reader.raw_messages(list(self.plan.topics))
+        t_first = None
+        for time_ns, group in itertools.groupby(messages, key=lambda msg: msg.time_ns):
+            samples += 1
+            if not fast:
+                if t_first is None:
+                    t_first = time_ns
+                due = t_start + (time_ns - t_first) * 1e-9 / rate
+                while (left := due - time.monotonic()) > 0:
+                    if self.live:                 # answers arrive while waiting
+                        executor.spin_once(timeout_sec=left)
+                    else:
+                        time.sleep(left)
+            group = list(group)
+            for msg in group:
+                self._publish(msg)
+            if fast:
+                self._wait_answers(executor, group, answer_timeout_s, time_ns)
+        if not fast:
+            _spin_until(executor, lambda: not any(self.awaiting.values()),
+                        time.monotonic() + answer_timeout_s)
+        wall = time.monotonic() - t_start
+        for pub in self.pubs.values():     # delivered before the node may go away
+            pub.wait_for_all_acked(Duration(seconds=answer_timeout_s))
+        return ReplayResult(
+            "lockstep" if fast else f"timed x{rate:g}",
+            {self.plan.topics[t]: n for t, n in self.published.items()}, samples, wall,
+            {trigger: a.topic for trigger, a in self.live.items()},
+            [t for t in self.plan.answers if t not in self.live], self.resends, self.answers,
+            {t: len(s) for t, s in self.awaiting.items() if s})
+
+    def _wait_answers(self, executor, group, timeout_s: float, time_ns: int) -> None:
+        """Lockstep: spin until the group's answers are in; publish the unanswered triggers
+        again every RESEND_AFTER_S (a message lost while a subscriber was still connecting;
+        the package's nodes answer a repeated stamp from their cache, as for the plant's
+        resends); ReplayError after ``timeout_s``."""
+        t_end = time.monotonic() + timeout_s
+        done = lambda: not any(self.awaiting.values())     # noqa: E731
+        while not _spin_until(executor, done, min(t_end, time.monotonic() + RESEND_AFTER_S)):
+            if time.monotonic() >= t_end:
+                late = {t: sorted(s) for t, s in self.awaiting.items() if s}
+                raise ReplayError(
+                    "no answer within {:g} s on {} (messages logged at {} ns) -- fix: check "
+                    "that the node answering it runs and uses the bag's configuration, or leave "
+                    "its trigger out with --topics".format(
+                        timeout_s, ", ".join(f"{t} for stamp {s[0]} ns" for t, s in late.items()),
+                        time_ns))
+            self._resend(group)
+
+
+def _spin_until(executor, condition, t_end: float) -> bool:
+    while not condition():
+        left = t_end - time.monotonic()
+        if left <= 0:
+            return condition()
+        executor.spin_once(timeout_sec=min(left, 0.05))
+    return True
+
+
+def replay_bag(reader: BagReader, plan: ReplayPlan, *, executor_kind: str = "events",
+               **options) -> ReplayResult:
+    """Run a replay in its own rclpy context (usable in a process that already runs rclpy);
+    ``options`` as :meth:`Replayer.run`."""
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    node = None
+    executor = make_executor(executor_kind, context)
+    try:
+        node = Replayer(reader, plan, context=context)
+        executor.add_node(node)
+        return node.run(executor, **options)
+    finally:
+        executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+# -- the regression check (free of ROS) ---------------------------------------------------------
+@dataclass(frozen=True)
+class AnswerCheck:
+    """Live answers of one topic against the bag's recorded answers, matched by stamp."""
+
+    topic: str
+    recorded_topic: str
+    answers: int
+    compared: int               # answers with a recorded message of the same stamp
+    unmatched: int              # answers without one
+    unanswered: int             # triggers replayed but never answered
+    max_abs_diff: float         # over every numeric field of the compared messages
+    max_abs_value: float        # largest recorded value of those fields (the scale)
+
+    def passed(self, tolerance: float) -> bool:
+        return (self.compared > 0 and self.unmatched == 0 and self.unanswered == 0
+                and self.max_abs_diff <= tolerance)
+
+
+def compare_answers(reader: BagReader, plan: ReplayPlan, result: ReplayResult) -> list[AnswerCheck]:
+    """Compare every collected answer topic with its recorded counterpart in the bag."""
+    recorded_of = {a.topic: a.recorded for a in plan.answers.values()}
+    checks = []
+    for topic, answers in result.answers.items():
+        recorded_topic = recorded_of.get(topic, topic)
+        if recorded_topic not in reader.topics:
+            checks.append(AnswerCheck(topic, recorded_topic, len(answers), 0, len(answers),
+                                      result.missing.get(topic, 0), float("inf"), 0.0))
+            continue
+        codec = reader.codec(recorded_topic)
+        time_of = m.raw_time_reader(reader.topics[recorded_topic].msg_type)
+        recorded = {}
+        for msg in reader.raw_messages(recorded_topic):
+            stamp = time_of(msg.data)
+            recorded.setdefault(msg.time_ns if stamp is None else stamp, msg.data)
+        seen, diff, scale, compared, unmatched = set(), 0.0, 0.0, 0, 0
+        for stamp, data in answers:
+            if stamp in seen:
+                continue                   # a repeated answer (a resent trigger)
+            seen.add(stamp)
+            if stamp not in recorded:
+                unmatched += 1
+                continue
+            d, s = _leaf_difference(codec.decode(data), codec.decode(recorded[stamp]))
+            diff, scale, compared = max(diff, d), max(scale, s), compared + 1
+        checks.append(AnswerCheck(topic, recorded_topic, len(answers), compared, unmatched,
+                                  result.missing.get(topic, 0), diff, scale))
+    return checks
+
+
+def _leaf_difference(live: dict, recorded: dict) -> tuple[float, float]:
+    """(max |live - recorded| over every numeric field, max |recorded| over the floating-point
+    fields, i.e. the values without the stamps); inf when the structures differ or only one
+    of two values is NaN."""
+    a, b = dict(_numeric_leaves(live, "")), dict(_numeric_leaves(recorded, ""))
+    if a.keys() != b.keys():
+        return float("inf"), 0.0
+    diff = scale = 0.0
+    for path, value in b.items():
+        x, y = np.asarray(a[path], float), np.asarray(value, float)
+        if x.shape != y.shape:
+            return float("inf"), 0.0
+        if y.size:
+            d = np.where(np.isnan(x) & np.isnan(y), 0.0, np.abs(x - y))   # NaN = NaN only
+            diff = max(diff, float(np.max(np.nan_to_num(d, nan=np.inf))))
+            if np.asarray(value).dtype.kind == "f" or isinstance(value, float):
+                scale = max(scale, float(np.max(np.abs(y))))
+    return diff, scale

@@ -1,0 +1,241 @@
+"""`rotor-avc replay`: a foot controller re-driven with a bag's recorded foot accelerations
+publishes the recorded forces (same filter, same inputs: equal to 1e-12), a changed controller is
+detected, timed replay keeps the recorded timing, and malformed bags give a one-line error."""
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from ros_helpers import ROOT, make_executor, node_process, params, rclpy, spin_until, stop
+from test_ros_graph import scenario_file
+
+from geometry_msgs.msg import AccelStamped, WrenchStamped
+from rclpy.serialization import deserialize_message
+
+from rotor_avc.bag import BagReader, BagWriter, topics as T
+from rotor_avc.bag.mcap_writer import McapSink
+from rotor_avc.cli import main as cli
+from rotor_avc.nodes import messages as m
+from rotor_avc.nodes.foot_controller import FootController
+from rotor_avc.nodes.recorder import RECORD_QOS
+from rotor_avc.nodes.replay import (AnswerRule, Replayer, ReplayError, ReplayResult,
+                                    compare_answers, plan_replay)
+
+pytestmark = pytest.mark.ros
+DL_ACC, DL_FORCE = "/avc/foot/DL/acceleration", "/avc/foot/DL/actuator_force"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def ros():
+    rclpy.init()
+    yield
+    rclpy.shutdown()
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A 0.2 s case-3 run at 5 kHz (1000 samples) as a bag from `rotor-avc simulate`."""
+    tmp = tmp_path_factory.mktemp("replay")
+    sc = scenario_file(tmp, "foot_mount_case3", 20.0, duration_s=0.2)
+    bag = tmp / "case3.mcap"
+    assert cli(["simulate", sc, "--out", str(bag)]) == 0
+    return sc, bag
+
+
+def changed_gain(tmp_path, sc: str) -> str:
+    """A copy of the scenario whose DL controller has another gain."""
+    path = tmp_path / "changed.yaml"
+    path.write_text(f"include: {sc}\ncontrollers:\n"
+                    "  DL: {type: I, feedback: acceleration, ki: 1.5e+5}\n")
+    return str(path)
+
+
+def test_controller_redriven_by_the_bag_gives_the_recorded_forces(run):
+    """Lockstep replay of DL's and DR's accelerations into a DL controller node (one executor):
+    its forces equal the recorded ones to 1e-12 N, stamp by stamp; DR (no controller running)
+    is not waited for."""
+    sc, bag = run
+    ctrl = FootController("fc_replay_DL", parameter_overrides=params(scenario=sc, foot_id="DL"))
+    ex = make_executor("events")
+    ex.add_node(ctrl)
+    with BagReader(bag, require_config=True) as reader:
+        plan = plan_replay(reader, [DL_ACC, "/avc/foot/DR/acceleration"])
+        node = Replayer(reader, plan)
+        ex.add_node(node)
+        try:
+            result = node.run(ex, fast=True, discovery_timeout_s=2.0)   # DR: none comes
+        finally:
+            ex.shutdown()
+            node.destroy_node()
+            ctrl.destroy_node()
+        recorded = reader.series(DL_FORCE)
+        checks = compare_answers(reader, plan, result)
+    assert result.waited_for == {DL_ACC: DL_FORCE}
+    assert result.unanswered == ["/avc/foot/DR/acceleration"]
+    assert result.published == {DL_ACC: 1000, "/avc/foot/DR/acceleration": 1000}
+    assert result.samples == 1000 and not result.missing
+    live = [deserialize_message(data, WrenchStamped) for _, data in result.answers[DL_FORCE]]
+    stamps = np.array([m.stamp_ns(w.header.stamp) for w in live])
+    np.testing.assert_array_equal(stamps, recorded.time_ns)
+    force = np.array([w.wrench.force.z for w in live])
+    assert np.max(np.abs(force - recorded["wrench.force.z"])) <= 1e-12
+    assert np.max(np.abs(force)) > 10.0                   # real forces, not zeros
+    (check,) = checks
+    assert check.compared == 1000 and check.passed(1e-12)
+
+
+@pytest.mark.parametrize("changed", [False, True])
+def test_replay_command_checks_a_controller(tmp_path, run, changed):
+    """The command line as a user runs it (controller and replay in their own processes):
+    `--check` passes for the recorded controller and fails for one with another gain."""
+    sc, bag = run
+    config = changed_gain(tmp_path, sc) if changed else sc
+    ctrl = node_process("foot_controller", "-r", "__node:=fc_check_DL", "-p", f"scenario:={config}",
+                        "-p", "foot_id:=DL")
+    try:
+        proc = subprocess.run([sys.executable, "-m", "rotor_avc", "replay", str(bag), "--fast",
+                               "--topics", DL_ACC, "--check", "1e-12", "--discovery-timeout", "30"],
+                              cwd=ROOT, capture_output=True, text=True, timeout=180)
+    finally:
+        log = stop(ctrl)
+    assert "Traceback" not in proc.stderr + log, proc.stderr + log
+    assert f"{DL_ACC} -> {DL_FORCE}" in proc.stdout
+    if changed:
+        assert proc.returncode == 1 and f"FAIL on {DL_FORCE}" in proc.stdout, proc.stdout
+    else:
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert "1000 answers, 1000 compared" in proc.stdout
+        assert "every answer equals the recording" in proc.stdout
+
+
+def test_timed_replay_keeps_the_recorded_timing(run):
+    """`rotor-avc replay --rate 0.5` (its own process): the 0.2 s of DL accelerations take
+    0.4 s at a listener here -- every message, on the scaled schedule (none ahead of it, nearly
+    all within a few ms of it), values and order as recorded, under the remapped name."""
+    _, bag = run
+    rate = 0.5
+    topic = "/timed/foot/DL/acceleration"
+    got = []
+    listener = rclpy.create_node("timed_listener")
+    listener.create_subscription(
+        AccelStamped, topic,
+        lambda msg: got.append((time.monotonic(), m.stamp_ns(msg.header.stamp),
+                                msg.accel.linear.z)), RECORD_QOS)    # KEEP_ALL: none dropped
+    ex = make_executor("events")
+    ex.add_node(listener)
+    proc = subprocess.Popen([sys.executable, "-m", "rotor_avc", "replay", str(bag), "--rate",
+                             str(rate), "--topics", DL_ACC, "--remap", f"{DL_ACC}:={topic}",
+                             "--discovery-timeout", "30"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        assert spin_until(ex, lambda: len(got) == 1000 or proc.poll() is not None, timeout_s=90)
+        spin_until(ex, lambda: len(got) == 1000, timeout_s=2)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        log = stop(proc)
+        ex.shutdown()
+        listener.destroy_node()
+    assert proc.returncode == 0 and "Traceback" not in out + log, out + log
+    assert "published 1000 messages at 1000 log times" in out
+    with BagReader(bag) as reader:
+        recorded = reader.series(DL_ACC)
+    arrival, stamps, values = (np.array(c) for c in zip(*got))
+    np.testing.assert_array_equal(stamps, recorded.time_ns)
+    np.testing.assert_array_equal(values, recorded["accel.linear.z"])
+    schedule = (stamps - stamps[0]) * 1e-9 / rate
+    lateness = arrival - schedule                   # + a constant: when the replay started
+    typical = np.median(lateness)
+    assert np.min(lateness - typical) > -0.03       # none ahead of the schedule (+ jitter)
+    assert np.percentile(lateness, 90) - np.percentile(lateness, 10) < 0.05
+    assert lateness[-1] - typical < 1.0
+
+
+def test_plan_errors_name_the_topic_and_fix(run):
+    _, bag = run
+    with BagReader(bag) as reader:
+        with pytest.raises(ReplayError, match="no topic /nope in the bag.*use one of"):
+            plan_replay(reader, ["/nope"])
+        with pytest.raises(ReplayError, match="--remap names /clock, which is not replayed"):
+            plan_replay(reader, [DL_ACC], {"/clock": "/c2"})
+        with pytest.raises(ReplayError, match="not an absolute topic name"):
+            plan_replay(reader, [DL_ACC], {DL_ACC: "acc"})
+        plan = plan_replay(reader, [DL_ACC, DL_FORCE], {DL_ACC: "/re/foot/DL/acceleration"})
+        assert plan.topics[DL_ACC] == "/re/foot/DL/acceleration"
+        # the remapped trigger is answered on the remapped namespace; compared with the bag's
+        assert plan.answers["/re/foot/DL/acceleration"].topic == "/re/foot/DL/actuator_force"
+        assert plan.answers["/re/foot/DL/acceleration"].recorded == DL_FORCE
+        plan = plan_replay(reader, [DL_ACC, DL_FORCE])
+        assert plan.answers == {}                       # the answer is replayed itself
+        rule = AnswerRule.exact(DL_ACC, "/my/answer")
+        assert plan_replay(reader, [DL_ACC], rules=[rule]).answers[DL_ACC].topic == "/my/answer"
+
+
+def _bag_with_unknown_schema(path):
+    config = {"machine": {"model": "foot_mount_3d"}}
+    with BagWriter(path, config) as w:
+        w.write_streams([T.foot_acceleration("DL", np.arange(3) * 1e-3, np.zeros(3))])
+    raw = path.read_bytes()
+    foreign = path.with_name("foreign.mcap")
+    with open(foreign, "wb") as f:
+        sink = McapSink(f, "ros2", "test")
+        from rotor_avc.bag.metadata import encode_config
+        sink.add_metadata("rotor_avc", encode_config(config))
+        sid = sink.add_schema("foo_msgs/msg/Bar", "ros2msg", b"foo_msgs/Baz baz\n")
+        cid = sink.add_channel("/avc/foo", "cdr", sid, {})
+        sink.add_message(cid, 5, 5, 1, b"\x00\x01\x00\x00" + bytes(8))
+        sink.finish()
+    return raw, foreign
+
+
+def test_malformed_bags_give_one_line_errors(tmp_path, run, capsys):
+    _, bag = run
+    raw = bag.read_bytes()
+    cases = {}
+    cases["truncated"] = tmp_path / "cut.mcap"
+    cases["truncated"].write_bytes(raw[:len(raw) // 2])
+    _, cases["unknown schema"] = _bag_with_unknown_schema(tmp_path / "ok.mcap")
+    cases["no run configuration"] = tmp_path / "noconf.mcap"
+    with BagWriter(cases["no run configuration"], None) as w:
+        w.write_streams([T.foot_acceleration("DL", [0.0], [1.0])])
+    cases["holds no messages"] = tmp_path / "nomsg.mcap"
+    with BagWriter(cases["holds no messages"], {"machine": {"model": "x"}}) as w:
+        w.add_topic(DL_ACC)
+    cases["empty file"] = tmp_path / "zero.mcap"
+    cases["empty file"].write_bytes(b"")
+    for problem, path in cases.items():
+        assert cli(["replay", str(path), "--fast"]) == 2, problem
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and problem in err and "fix:" in err, err
+        assert err.startswith("rotor-avc replay: error: ")
+
+
+def test_compare_answers_matches_stamps_and_flags_every_difference(run):
+    """The regression check itself (no ROS traffic): answers equal to the recording pass; a
+    changed value, a NaN, a missing answer or an answer of a stamp never recorded fail."""
+    _, bag = run
+    with BagReader(bag) as reader:
+        plan = plan_replay(reader, [DL_ACC])
+        recorded = [(msg.time_ns, msg.data) for msg in reader.raw_messages(DL_FORCE)]
+
+        def check(answers, missing=0):
+            result = ReplayResult("lockstep", {DL_ACC: 1000}, 1000, 1.0, {DL_ACC: DL_FORCE}, [],
+                                  answers={DL_FORCE: answers},
+                                  missing={DL_FORCE: missing} if missing else {})
+            (c,) = compare_answers(reader, plan, result)
+            return c
+
+        same_answers = check(recorded + recorded[:5])          # repeated stamps count once
+        assert same_answers.compared == 1000 and same_answers.passed(0.0)
+        stamp, value = m.stamped_value(recorded[500][1])
+        for bad, why in ((value + 1e-9, "changed"), (float("nan"), "nan")):
+            answers = list(recorded)
+            answers[500] = (stamp, m.Force("DL").fill(stamp, bad))
+            c = check(answers)
+            assert not c.passed(1e-12), why
+            assert c.max_abs_diff == (pytest.approx(1e-9, rel=1e-3) if why == "changed"
+                                      else float("inf"))
+        assert not check(recorded[:-1], missing=1).passed(1.0)
+        stray = check(recorded + [(10**15, m.Force("DL").fill(10**15, 0.0))])
+        assert stray.unmatched == 1 and not stray.passed(1.0)
