@@ -194,3 +194,19 @@ simulation:
         assert scale > 0, ch
         assert np.max(np.abs(ts[ch] - ref[ch])) <= 1e-9 * scale, ch
     assert bal.block.last_output.mode != "estimate"          # it moved during the run
+
+
+@pytest.mark.parametrize("scenario", ["scenario_sleeve_velocity", "scenario_stability_demo"])
+def test_other_machines_run_in_the_graph(scenario):
+    """Seed 001 (oil films, velocity feedback at feet L, R) and seed 003 (soft foundation, damping
+    frozen at the whirl frequency) through the same nodes: equal to the in-process loop."""
+    sc = load_scenario(scenario)
+    feet = tuple(sc.machine.controllers)
+    assert feet == ("L", "R")
+    plant = run_graph(scenario, controllers=feet, duration_s=0.2)
+    ts = plant.result()
+    ref = in_process(scenario, plant.n_steps)
+    for ch, values in ref.channels.items():
+        scale = np.max(np.abs(values))
+        assert np.max(np.abs(ts[ch] - values)) <= 1e-9 * max(scale, 1e-300), ch
+    assert np.max(np.abs(ref["actuator_L_fz"])) > 0

@@ -80,7 +80,7 @@ class StampedVector:
     def __init__(self, kind: str, foot_id: str, axis: str = "z"):
         msg = STAMPED_TYPES[kind]()
         msg.header.frame_id = f"foot_{foot_id}"
-        self.foot_id, self.axis = foot_id, axis
+        self.kind, self.foot_id, self.axis = kind, foot_id, axis
         self._buf = bytearray(serialize_message(msg))
         self._value_at = _vector_offset(self._buf) + 8 * "xyz".index(axis)
 

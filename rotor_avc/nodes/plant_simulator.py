@@ -136,8 +136,8 @@ class PlantSimulator(Node):
     # -- start ----------------------------------------------------------------------------------
     def _connected(self) -> bool:
         ns = self.p["namespace"]
-        for pub, msg, idx in self.meas:
-            if msg.foot_id in self.feedback and pub.get_subscription_count() < 1:
+        for pub, msg, idx in self.meas:       # each controller's own signal must be heard
+            if self.feedback.get(msg.foot_id) == msg.kind and pub.get_subscription_count() < 1:
                 return False
         for foot in self.feedback:
             if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
