@@ -29,6 +29,7 @@ NODE_ARGS = {
     "plant_simulator": ["-p", "scenario:=scenario_case3_steady"],
     "foot_controller": ["-p", "scenario:=scenario_case3_steady", "-p", "foot_id:=DL"],
     "balancer": ["-p", "scenario:=scenario_balance_runup"],
+    "synchronous_controller": ["-p", "scenario:=scenario_active_bearing"],
     "recorder": ["-p", "scenario:=scenario_case3_steady", "-p", "path:={tmp}/colcon.mcap"],
 }
 

@@ -210,3 +210,30 @@ def test_other_machines_run_in_the_graph(scenario):
         scale = np.max(np.abs(values))
         assert np.max(np.abs(ts[ch] - values)) <= 1e-9 * max(scale, 1e-300), ch
     assert np.max(np.abs(ref["actuator_L_fz"])) > 0
+
+
+def test_feedforward_node_in_lockstep_equals_in_process():
+    """Seed 002: the plant waits for the synchronous_controller's 1x forces (actuators y1, x1,
+    y2, x2 in the bearing housings); equal to the in-process loop with the same generator."""
+    from rotor_avc.nodes.synchronous_controller import SynchronousController
+    scenario = "scenario_active_bearing"
+    plant = PlantSimulator("plant_ff", parameter_overrides=params(scenario=scenario,
+                                                                  duration_s=0.05))
+    ff = SynchronousController("synchronous_controller", parameter_overrides=params(
+        scenario=scenario))
+    ex = make_executor("events")
+    for n in (plant, ff):
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: plant.finished, timeout_s=120)
+    finally:
+        ex.shutdown()
+        plant.destroy_node()
+        ff.destroy_node()
+    ts = plant.result()
+    sc = load_scenario(scenario)
+    ref = run_loop(sc.stepper(), {}, plant.n_steps, feedforward=sc.feedforward(), progress=False)
+    for ch, values in ref.channels.items():
+        scale = np.max(np.abs(values))
+        assert np.max(np.abs(ts[ch] - values)) <= 1e-9 * max(scale, 1e-300), ch
+    assert np.max(np.abs(ref["actuator_x2_fx"])) > 0 and not plant.fault_log

@@ -218,3 +218,16 @@ def side_table(result: FeedforwardResult, forces=None) -> dict[tuple[str, str], 
             table[(side, d)] = {"rms_before": rms_b, "rms_after": rms_a,
                                 "il_db": insertion_loss_db(rms_b, rms_a)}
     return table
+
+
+def synchronous_generator(plant: LinearPlant, sample_period_s: float, unbalance_kg_m: complex,
+                          method: str = "paper", points: int = 400):
+    """The 1x force generator of the run (rotor_avc.control.synchronous): the quantified forces
+    per unit unbalance tabulated from 1 Hz up to 90 % of the Nyquist frequency, played for the
+    run's (known) unbalance, with the hold compensation of sample period ``T``."""
+    from ..control.synchronous import SynchronousForceGenerator
+    top = 0.9 * np.pi / sample_period_s
+    table = solve_feedforward(plant, np.linspace(2 * np.pi, top, points), method, 1.0)
+    return SynchronousForceGenerator(table.speed_rad_s, table.forces_per_unit, unbalance_kg_m,
+                                     [a.id for a in plant.actuators],
+                                     sample_period_s=sample_period_s)

@@ -1,7 +1,8 @@
 """Run a scenario as a ROS graph of separate processes, launch-free (the demo's engine).
 
 One process per node, as ``ros2 run`` would start them: the recorder, one ``foot_controller`` per
-controlled foot, the ``balancer`` when the scenario has one, and the ``plant_simulator`` in
+controlled foot, the ``synchronous_controller`` for a feed-forward scenario, the ``balancer``
+when the scenario has one, and the ``plant_simulator`` in
 lockstep, which waits until the recorder listens to every topic of the run
 (``wait_for_recorder``), so the bag holds every sample. Progress comes from the plant's
 ``/diagnostics`` (sample / samples_total), read by a small listener node in this process. When
@@ -66,6 +67,9 @@ def run_graph(scenario_name: str, bag: Path, log_dir: Path,
     for foot in scenario.machine.controllers:
         procs[f"foot_controller_{foot}"] = _start(
             "foot_controller", common + ["-p", f"foot_id:={foot}"], log_dir, f"foot_controller_{foot}")
+    if scenario.feedforward_actuators():
+        procs["synchronous_controller"] = _start("synchronous_controller", common, log_dir,
+                                                 "synchronous_controller")
     plant_args = common + ["-p", "wait_for_recorder:=recorder"]
     if scenario.use_balancer:
         procs["balancer"] = _start("balancer", common, log_dir, "balancer")

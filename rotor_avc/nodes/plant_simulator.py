@@ -84,6 +84,10 @@ class PlantSimulator(Node):
         plant = self.stepper.plant
         self.axis = {a.id: a.axis for a in plant.actuators}
         self.feedback = {foot: ctrl.feedback for foot, ctrl in sc.machine.controllers.items()}
+        # actuators whose force the plant waits for: feedback controllers and the feed-forward
+        # node's (synchronous_controller, seed 002), which answers rotor/joint_state
+        ff = sc.feedforward_actuators()
+        self.driven = tuple(self.feedback) + tuple(ff)
         ns = self.p["namespace"]
         lay = self.stepper.layout
         # foot measurements: acceleration of every actuated foot, plus each controller's signal
@@ -104,10 +108,10 @@ class PlantSimulator(Node):
         self.pub_obs = self.create_publisher(Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
-        responders = tuple(self.feedback) + (("balancer",) if self.p["balancer"] else ())
+        responders = self.driven + (("balancer",) if self.p["balancer"] else ())
         self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
                                self.p["resend_after_s"])
-        for foot in self.feedback:
+        for foot in self.driven:
             self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
                                      lambda data, f=foot: self._on_force(f, data), m.LOCKSTEP_QOS,
                                      raw=True)
@@ -115,7 +119,7 @@ class PlantSimulator(Node):
         if self.p["balancer"]:
             self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
                                      self._on_balancer, m.LOCKSTEP_QOS)
-        self.last_force_time = {foot: None for foot in self.feedback}
+        self.last_force_time = {foot: None for foot in self.driven}
         self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
         self.Y = np.empty((self.n_steps, len(lay.names)))
         self.U = np.empty((self.n_steps, self.stepper.n_inputs))
@@ -139,11 +143,13 @@ class PlantSimulator(Node):
         for pub, msg, idx in self.meas:       # each controller's own signal must be heard
             if self.feedback.get(msg.foot_id) == msg.kind and pub.get_subscription_count() < 1:
                 return False
-        for foot in self.feedback:
+        for foot in self.driven:
             if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
                 return False
         if self.p["balancer"] and self.count_publishers(m.topic("balancer/command", ns)) < 1:
             return False
+        if len(self.driven) > len(self.feedback) and self.pub_joint.get_subscription_count() < 1:
+            return False                       # the feed-forward node answers joint_state
         return not self._unrecorded()
 
     def _unrecorded(self) -> list[str]:
@@ -155,7 +161,7 @@ class PlantSimulator(Node):
             return []
         ns = self.p["namespace"]
         own = [pub for pub, _, _ in self.meas] + [self.pub_joint, self.pub_clock, self.pub_obs]
-        others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.feedback]
+        others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.driven]
         if self.p["balancer"]:
             others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
         missing = []
@@ -222,7 +228,7 @@ class PlantSimulator(Node):
 
     def _forces(self) -> np.ndarray:
         return forces_from_answers(self.stepper, {foot: self.book.value(foot, 0.0)
-                                                  for foot in self.feedback})
+                                                  for foot in self.driven})
 
     def _advance(self) -> None:
         """All answers of sample k are in: record, hold u_k, step to k+1, publish it."""
@@ -249,7 +255,7 @@ class PlantSimulator(Node):
             if self._connected():
                 self._start()
             elif now - self.t_created > self.p["discovery_timeout_s"]:
-                missing = [f for f in self.feedback if self.count_publishers(
+                missing = [f for f in self.driven if self.count_publishers(
                     m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
                 unrecorded = self._unrecorded()
                 if missing or not unrecorded:
@@ -288,7 +294,7 @@ class PlantSimulator(Node):
                 r.faults += 1
                 r.fault_reason = f"silent for more than {self.p['controller_timeout_s']:g} s"
                 self._fault(f"{foot}: {r.fault_reason}; policy: {self.book.policy}")
-        u = forces_from_answers(self.stepper, {f: self._latest_force(f) for f in self.feedback})
+        u = forces_from_answers(self.stepper, {f: self._latest_force(f) for f in self.driven})
         self.timing.start()
         self._publish_sample()
         self.Y[self.k] = self.y

@@ -77,6 +77,21 @@ def controller_forces(plan, y: np.ndarray, forces: np.ndarray) -> np.ndarray:
     return forces
 
 
+def feedforward_positions(stepper: PlantStepper, controllers: Mapping, feedforward) -> list[int]:
+    """Positions in the force vector of the feed-forward block's actuators (none controlled)."""
+    if feedforward is None:
+        return []
+    ids = [a.id for a in stepper.plant.actuators]
+    both = sorted(set(feedforward.actuator_ids) & set(controllers))
+    if both:
+        raise ModelError(f"actuators {both} have a feedback controller and the feed-forward "
+                         "generator; give each actuator one of them")
+    missing = [a for a in feedforward.actuator_ids if a not in ids]
+    if missing:
+        raise ModelError(f"feed-forward actuators {missing} are not the plant's ({', '.join(ids)})")
+    return [ids.index(a) for a in feedforward.actuator_ids]
+
+
 def forces_from_answers(stepper: PlantStepper, answers: Mapping[str, float]) -> np.ndarray:
     """Force vector in plant actuator order from ``{actuator_id: force_n}`` (others zero)."""
     ids = [a.id for a in stepper.plant.actuators]
@@ -138,15 +153,21 @@ class Progress:
 
 
 def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
-             balancer: BalancerBlock | None = None, initial_state: str = "rest",
-             progress: bool | None = None,
+             balancer: BalancerBlock | None = None, feedforward=None,
+             initial_state: str = "rest", progress: bool | None = None,
              metadata: dict | None = None) -> TimeSeries:
     """Run ``n_steps`` samples of the lockstep loop from ``t = 0``; return the time series.
 
+    ``feedforward``: a synchronous force generator (rotor_avc.control.synchronous: ``actuator_ids``,
+    ``reset()``, ``step(angle, speed) -> forces``) whose forces drive its actuators (which then
+    have no feedback controller), from the shaft angle and speed at ``t_k``.
     ``progress``: True/False, or None for "when stderr is a terminal and the run is long"."""
     if not isinstance(n_steps, int) or n_steps < 1:
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
     plan = control_plan(stepper, controllers)
+    ff_pos = feedforward_positions(stepper, controllers, feedforward)
+    if feedforward is not None:
+        feedforward.reset()
     if progress is None:
         progress = sys.stderr.isatty() and n_steps >= 50_000
     bar = Progress(n_steps, stepper.T, progress)
@@ -159,6 +180,9 @@ def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
     for k in range(n_steps):
         Y[k] = y
         controller_forces(plan, y, u)
+        if feedforward is not None:
+            speed, _, angle = stepper.speed_state()
+            u[ff_pos] = feedforward.step(angle, speed)
         U[k] = u
         if balancer is not None:
             balancer_update(stepper, balancer, k, y)

@@ -43,6 +43,7 @@ from .stepper import DEFAULT_GRID_TOL, PlantStepper
 from .timeseries import TimeSeries
 
 SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
+                   "feedforward",
                    "whirl_rad_s", "initial_state", "speed_grid_tol", "test_signal")
 DEFAULT_RELEVANT_MODES = 6
 
@@ -58,6 +59,9 @@ class Scenario:
     initial_state: str
     grid_tol: float
     use_balancer: bool = False
+    #: ``simulation.feedforward`` method (``paper`` or ``exact``: seed 002's quantified force
+    #: played by a 1x generator for the run's unbalance), or None
+    feedforward_method: str | None = None
     test_force: BroadbandForce | None = None
 
     @property
@@ -91,10 +95,25 @@ class Scenario:
             return None
         return LoopBalancer(machine_setup(self.machine), self.sample_period_s)
 
+    def feedforward(self):
+        """The run's synchronous force generator (``simulation.feedforward``), or None."""
+        if self.feedforward_method is None:
+            return None
+        from ..analysis.active_bearing_ff import synchronous_generator
+        return synchronous_generator(self.machine.plant, self.sample_period_s,
+                                     self.amplitudes.get("unbalance", 0j), self.feedforward_method)
+
+    def feedforward_actuators(self) -> list[str]:
+        """Actuators the feed-forward drives (all of the plant's), without building its table."""
+        if self.feedforward_method is None:
+            return []
+        return [a.id for a in self.machine.plant.actuators]
+
     def run(self, progress: bool | None = None, balancer=None) -> TimeSeries:
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
         return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
+                        feedforward=self.feedforward(),
                         initial_state=self.initial_state, progress=progress, metadata=meta)
 
 
@@ -187,10 +206,34 @@ def scenario_from_machine(machine: Machine) -> Scenario:
                         fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
     test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
             if sim.has("test_signal") else None)
-    return Scenario(machine, 1.0 / fs, duration, profile,
-                    _amplitudes(machine, sim.section("unbalance", {})), damping, initial,
-                    sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
-                    use_balancer, test)
+    return Scenario(
+        machine=machine, sample_period_s=1.0 / fs, duration_s=duration, profile=profile,
+        amplitudes=_amplitudes(machine, sim.section("unbalance", {})), damping=damping,
+        initial_state=initial,
+        grid_tol=sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
+        use_balancer=use_balancer, feedforward_method=_feedforward_method(machine, sim),
+        test_force=test)
+
+
+def _feedforward_method(machine: Machine, sim) -> str | None:
+    if not sim.has("feedforward"):
+        return None
+    ff = sim.section("feedforward")
+    ff.check_keys(("type", "method"))
+    ff.choice("type", ("synchronous",))
+    if machine.config.string("model") != "active_bearing":
+        raise ff.error("type", "the synchronous (1x) force generator is seed 002's feed-forward "
+                       "of the active-bearing rotor", fix="use it with model: active_bearing")
+    overlap = sorted(set(machine.controllers))
+    if overlap:
+        raise ff.error("type", f"actuators {overlap} also have feedback controllers",
+                       fix="give each actuator either a controller or the feed-forward")
+    if sim.raw("initial_state", "rest") != "rest":
+        raise sim.error("initial_state", "the feed-forward run starts from rest (the periodic "
+                        "solution is computed for feedback controllers only)",
+                        fix="use `initial_state: rest` and a duration of several time constants")
+    default = machine.config.section("feedforward", {}).raw("method", "paper")
+    return ff.choice("method", ("paper", "exact"), default=default)
 
 
 def load_scenario(name) -> Scenario:
