@@ -3,7 +3,8 @@ lockstep run with `simulation.test_signal` reproduces the in-process loop sample
 import numpy as np
 import pytest
 
-from ros_helpers import make_executor, params, rclpy, spin_until
+from ros_helpers import make_executor, params, rclpy, spin_until  # noqa: F401
+from test_ros_graph import FEET, ros  # noqa: F401  (the module's rclpy context)
 
 from rotor_avc.config import find_config
 from rotor_avc.nodes.foot_controller import FootController
@@ -11,14 +12,6 @@ from rotor_avc.nodes.plant_simulator import PlantSimulator
 from rotor_avc.sim.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
-FEET = ("DL", "DR", "NL")
-
-
-@pytest.fixture(scope="module", autouse=True)
-def ros():
-    rclpy.init()
-    yield
-    rclpy.shutdown()
 
 
 def test_lockstep_graph_applies_the_test_force_like_the_in_process_loop(tmp_path):

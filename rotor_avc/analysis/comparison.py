@@ -399,17 +399,14 @@ def _broadband_checks(bbs: list[Broadband], m: str) -> list[Check]:
 # -- poles ----------------------------------------------------------------------------------------
 def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
     """Continuous and sampled-loop poles (``s``, 1/s) at each speed with the run's ``w_F``."""
-    machine = run.machine
-    sampled = SampledLoop.from_blocks(machine.plant, build_digital_controllers(
-        machine, run.sample_period_s), run.sample_period_s)
+    loops = _loops(run)
     out = []
     for speed in speeds_rad_s:
-        w_F = float(run.scenario.damping.w_F(machine.plant, np.array(speed)))
-        cont = closed_loop_poles(machine.loop, float(speed), w_F)
-        samp = sampled.poles(float(speed), w_F)
-        s = samp.s
-        out.append({"speed_hz": float(speed / (2 * np.pi)), "w_F": w_F, "continuous": cont,
-                    "sampled": s[np.isfinite(s)], "sampled_max_abs_z": samp.max_abs_z})
+        w_F = float(run.scenario.damping.w_F(run.machine.plant, np.array(speed)))
+        samp = loops["sampled"].poles(float(speed), w_F)
+        out.append({"speed_hz": float(speed / (2 * np.pi)), "w_F": w_F,
+                    "continuous": closed_loop_poles(loops["continuous"], float(speed), w_F),
+                    "sampled": samp.s[np.isfinite(samp.s)], "sampled_max_abs_z": samp.max_abs_z})
     return out
 
 
