@@ -145,13 +145,18 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
             n_before = len(lis.forces.get("DL", []))
             assert spin_until(ex, lambda: len(lis.forces.get("DL", [])) > n_before, timeout_s=10)
         spin_until(ex, lambda: False, timeout_s=0.3)
+        n_answers = len(lis.forces["DL"])
+        ctrl._on_measurement(b"\x00\x01\x00\x00not a measurement")   # malformed bytes
+        spin_until(ex, lambda: False, timeout_s=0.3)
+        assert len(lis.forces["DL"]) == n_answers                # nothing to answer
     finally:
         ex.shutdown()
         ctrl.destroy_node()
         lis.node.destroy_node()
     got = [f for _, f in lis.forces["DL"]]
     np.testing.assert_allclose(got, expected, rtol=0, atol=0)
-    assert ctrl.faults == {"not_finite": 2, "stale": 1, "repeated": 1}
+    assert ctrl.faults == {"not_finite": 2, "stale": 1, "repeated": 1, "malformed": 1}
+    assert "malformed measurement ignored" in ctrl.last_fault
     warnings = [st.message for st in lis.statuses("warn")]
     assert any("measurement nan" in w and "holding the safe output" in w for w in warnings)
     assert any("stale measurement" in w for w in warnings)

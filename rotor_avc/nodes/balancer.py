@@ -9,10 +9,15 @@ in-process loop runs): it pairs ``rotor/joint_state`` (shaft angle, speed) and
 block, and publishes
 
 * ``balancer/command`` -- the correction its plane applies, labelled ``time_s,
-  static_re, static_im, moment_re, moment_im`` (kg m, kg m^2), stamped by ``time_s``;
-* ``balancer/estimate`` -- the estimated unbalance in the same layout.
+  static_re, static_im, moment_re, moment_im`` (kg m, kg m^2), stamped by ``time_s``, at every
+  plant sample (the plant waits for it);
+* ``balancer/estimate`` -- the estimated unbalance in the same layout, at every balancer sample
+  (every ``balancer.sample_period_s``, when the estimate can change: the block updates only
+  then), stamped by the plant sample that brought it.
 
-A repeated sample (the plant resending) is answered from the cache without stepping twice.
+A repeated sample (the plant resending) is answered from the cache without stepping twice. All
+four topics travel as serialised bytes (rotor_avc.nodes.messages: raw subscriptions and
+publishers, the same messages on the wire); a malformed message is ignored and reported.
 """
 from __future__ import annotations
 
@@ -53,80 +58,97 @@ class Balancer(Node):
                                 "`balancer:` section -- fix: use a balancer scenario")
         self.block = LoopBalancer(machine_setup(sc.machine), sc.sample_period_s)
         self.excitations = [e.name for e in sc.machine.plant.excitations]
-        labels = ["time_s"] + [f"{e}_{part}" for e in self.excitations for part in ("re", "im")]
-        self.command = m.Labelled(labels)
-        self.estimate = m.Labelled(labels)
+        names = [f"{e}_{part}" for e in self.excitations for part in ("re", "im")]
+        self.command = m.LabelledBytes(names)
+        self.estimate = m.LabelledBytes(names)
         ns = self.p["namespace"]
         self.pub_cmd = self.create_publisher(Float64MultiArray, m.topic("balancer/command", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_est = self.create_publisher(Float64MultiArray, m.topic("balancer/estimate", ns),
                                              m.LOCKSTEP_QOS)
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
-                                 m.LOCKSTEP_QOS)
+                                 m.LOCKSTEP_QOS, raw=True)
         self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
-                                 self._on_observables, m.LOCKSTEP_QOS)
+                                 self._on_observables, m.LOCKSTEP_QOS, raw=True)
         self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.joints: dict[int, tuple[float, float]] = {}
-        self.values: dict[int, tuple[float, list[str], list[float]]] = {}
+        self.values: dict[int, tuple[float, ...]] = {}
+        self.observables_label = ""
+        self.names: tuple[str, ...] = ()          # of the observables after time_s
         self.last_stamp = -1
         self.k = 0
-        self.last_answer: list[float] | None = None
+        self.last_answer: bytes | None = None
         self.faults = 0
         self.last_fault = ""
 
-    def _on_joint(self, msg: JointState) -> None:
-        if len(msg.position) < 1 or len(msg.velocity) < 1:
+    def _on_joint(self, data: bytes) -> None:
+        try:
+            stamp, position, velocity = m.joint_state(data)
+        except m.MessageError as exc:
+            self._fault(f"rotor/joint_state ignored: {exc}")
+            return
+        if len(position) < 1 or len(velocity) < 1:
             self._fault("rotor/joint_state without position/velocity")
             return
-        stamp = m.stamp_ns(msg.header.stamp)
-        self.joints[stamp] = (msg.position[0], msg.velocity[0])
+        self.joints[stamp] = (position[0], velocity[0])
         self._try(stamp)
 
-    def _on_observables(self, msg: Float64MultiArray) -> None:
-        names = m.labels(msg)
-        if names[:1] != ["time_s"]:
-            self._fault("plant/observables without the leading time_s element")
+    def _on_observables(self, data: bytes) -> None:
+        try:
+            label, values = m.labelled_array(data)
+            if label != self.observables_label:       # the plant's layout: read once
+                names = tuple(label.split(","))
+                if names[0] != "time_s":
+                    raise m.MessageError(f"labelled {label!r}: no leading time_s element")
+                self.observables_label, self.names = label, names[1:]
+            if len(values) != len(self.names) + 1:
+                raise m.MessageError(f"{len(values)} values for the {len(self.names) + 1} "
+                                     f"labels {label!r}")
+            stamp = m.received_time_ns(values[0])
+        except m.MessageError as exc:
+            self._fault(f"plant/observables ignored: {exc}")
             return
-        stamp = m.time_to_ns(msg.data[0])
-        self.values[stamp] = (msg.data[0], names[1:], list(msg.data[1:]))
+        self.values[stamp] = values
         self._try(stamp)
 
     def _try(self, stamp: int) -> None:
         if stamp not in self.joints or stamp not in self.values:
             return
         angle, speed = self.joints.pop(stamp)
-        t_s, names, values = self.values.pop(stamp)          # t_s = k T exactly as the plant has it
+        values = self.values.pop(stamp)
+        t_s, signals = values[0], values[1:]              # t_s = k T exactly as the plant has it
         if stamp == self.last_stamp and self.last_answer is not None:
-            self._publish(self.last_answer, None)          # the plant resent this sample
+            self.pub_cmd.publish(self.last_answer)        # the plant resent this sample
             return
         if stamp < self.last_stamp:
             self._fault(f"stale sample {stamp} ns after {self.last_stamp} ns: ignored")
             return
-        if not all(math.isfinite(v) for v in values) or not math.isfinite(speed):
+        updated = self.block.last_output
+        if not all(map(math.isfinite, signals)) or not math.isfinite(speed):
             self._fault(f"non-finite measurement at {stamp} ns: correction held")
             corr = self.block.correction
         else:
             self.timing.start()
-            corr = self.block.step(LoopSample(self.k, t_s, angle, speed, 0.0, values, tuple(names)))
+            corr = self.block.step(LoopSample(self.k, t_s, angle, speed, 0.0, signals, self.names))
             self.timing.stop()
             self.k += 1
         self.last_stamp = stamp
-        answer = [t_s] + [x for e in self.excitations for x in (corr[e].real, corr[e].imag)]
-        est = self.block.estimate()
-        self.last_answer = answer
-        self._publish(answer, [t_s] + [x for e in self.excitations
-                                       for x in (est[e].real, est[e].imag)])
-        for old in [s for s in self.joints if s < stamp]:
-            del self.joints[old]
-        for old in [s for s in self.values if s < stamp]:
-            del self.values[old]
+        self.last_answer = self.command.fill(t_s, self._parts(corr))
+        self.pub_cmd.publish(self.last_answer)
+        if self.block.last_output is not updated:          # a balancer sample: a new estimate
+            self.pub_est.publish(self.estimate.fill(t_s, self._parts(self.block.estimate())))
+        if self.joints:                                  # unpaired older samples: drop them
+            for old in [s for s in self.joints if s < stamp]:
+                del self.joints[old]
+        if self.values:
+            for old in [s for s in self.values if s < stamp]:
+                del self.values[old]
 
-    def _publish(self, command, estimate) -> None:
-        self.pub_cmd.publish(self.command.fill(command))
-        if estimate is not None:
-            self.pub_est.publish(self.estimate.fill(estimate))
+    def _parts(self, amplitudes: dict[str, complex]) -> list[float]:
+        """``re, im`` of each excitation's amplitude in the labels' order."""
+        return [x for e in self.excitations for x in (amplitudes[e].real, amplitudes[e].imag)]
 
     def _fault(self, text: str) -> None:
         self.faults += 1

@@ -78,12 +78,18 @@ class FootController(Node):
         self.timing = LoopTiming(None)
         self.last_stamp = -1
         self.last_force = 0.0
-        self.faults = {"not_finite": 0, "stale": 0, "repeated": 0}
+        self.faults = {"not_finite": 0, "stale": 0, "repeated": 0, "malformed": 0}
         self.last_fault = ""
 
     def _on_measurement(self, data: bytes) -> None:
         self.timing.start()
-        stamp, value = m.stamped_value(data, self.axis)          # raw: see messages.StampedVector
+        try:
+            stamp, value = m.stamped_value(data, self.axis)      # raw: see messages.StampedVector
+        except ValueError as exc:                                # no stamp to answer: say why
+            self.faults["malformed"] += 1
+            self._report(f"malformed measurement ignored ({exc})")
+            self.timing.stop()
+            return
         if stamp == self.last_stamp:
             self.faults["repeated"] += 1
             force = self.last_force

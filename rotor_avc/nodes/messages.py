@@ -8,15 +8,21 @@ publishes acceleration for every actuated foot and, for a controller fed back on
 velocity, that signal too. Forces: ``foot/<id>/actuator_force`` (geometry_msgs/WrenchStamped,
 ``wrench.force``), stamped with the measurement they answer.
 
-Messages are built once and mutated per sample (building a message costs more than sending it);
-the foot measurements and forces travel as serialised bytes (:class:`StampedVector`,
-:func:`stamped_value`: raw publishers and subscriptions), the same messages on the wire.
+Every message of the lockstep loop travels as serialised CDR bytes (raw publishers and
+subscriptions): the nodes fill a template that rclpy serialised once and read the fields they need
+from the bytes -- foot measurements and forces (:class:`StampedVector`, :func:`stamped_value`),
+``rotor/joint_state`` and ``/clock`` (:class:`RotorBytes`, :func:`joint_state`), the labelled
+arrays (:class:`LabelledBytes`, :func:`labelled_array`). These are the same messages on the wire:
+subscribers of the typed messages, the recorder and the bag tools see no difference. rclpy's
+conversion of Python messages, not the nodes' arithmetic, was the cost of the loop
+(bench/bench_ros_loop.py).
 """
 from __future__ import annotations
 
 import struct
 from typing import Callable
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PointStamped, TwistStamped, WrenchStamped
@@ -64,6 +70,14 @@ def sample_ns(k: int, sample_period_s: float) -> int:
 def time_to_ns(time_s: float) -> int:
     """Sample time ``t_k = k T`` (float seconds, as carried in labelled arrays) -> stamp in ns."""
     return int(round(time_s * 1e9))
+
+
+def received_time_ns(time_s: float) -> int:
+    """:func:`time_to_ns` of a ``time_s`` received in a labelled array; :class:`MessageError`
+    unless it is a sim time a stamp can hold (0 <= t < 2**31 s; NaN is not)."""
+    if not 0.0 <= time_s < 2.0**31:
+        raise MessageError(f"time_s = {time_s} is not a sim time (0 <= time_s < 2**31 s)")
+    return time_to_ns(time_s)
 
 
 class StampedVector:
@@ -121,6 +135,126 @@ def stamped_value(data: bytes, axis: str = "z") -> tuple[int, float]:
     return sec * _BILLION + nanosec, value
 
 
+class MessageError(ValueError):
+    """Serialised bytes that are not a well-formed message of the expected type."""
+
+
+class _Cdr:
+    """Reading cursor over little-endian CDR bytes (XCDR1 as rmw serialises them): each primitive
+    aligned to its size, counted from the end of the 4-byte encapsulation header; a sequence of
+    float64 is aligned to 8 only when it has elements. Every read checks the bounds and raises
+    :class:`MessageError` naming the message type and the field."""
+
+    __slots__ = ("data", "pos", "what")
+
+    def __init__(self, data, what: str):
+        if len(data) < 4 or data[1] != _CDR_LE:
+            raise MessageError(f"{what}: not little-endian CDR ({len(data)} bytes, header "
+                               f"{bytes(data[:4]).hex()})")
+        self.data, self.pos, self.what = data, 4, what
+
+    def _truncated(self, field: str, at: int, n: int) -> MessageError:
+        return MessageError(f"{self.what}: truncated -- {field} needs bytes {at}..{at + n} of "
+                            f"{len(self.data)}")
+
+    def u32(self, field: str) -> int:
+        at = self.pos + -self.pos % 4
+        self.pos = at + 4
+        if self.pos > len(self.data):
+            raise self._truncated(field, at, 4)
+        return _U32.unpack_from(self.data, at)[0]
+
+    def stamp_ns(self) -> int:
+        """The Header's / Time's stamp (the first field) in ns."""
+        if len(self.data) < 12:
+            raise self._truncated("the stamp", 4, 8)
+        self.pos = 12
+        sec, nanosec = _STAMP.unpack_from(self.data, 4)
+        return sec * _BILLION + nanosec
+
+    def string(self, field: str) -> str:
+        n = self.u32(field)
+        at = self.pos
+        self.pos = end = at + n
+        if end > len(self.data):
+            raise self._truncated(field, at, n)
+        if n < 1 or self.data[end - 1] != 0:
+            raise MessageError(f"{self.what}: {field} is not a NUL-terminated string (length {n})")
+        try:
+            return str(self.data[at:end - 1], "utf-8")
+        except UnicodeDecodeError as exc:
+            raise MessageError(f"{self.what}: {field} is not UTF-8 ({exc})") from None
+
+    def f64_block(self, field: str) -> tuple[int, int]:
+        """``(byte offset, count)`` of a float64 sequence, skipped."""
+        n = self.u32(field)
+        at = self.pos + (-(self.pos - 4) % 8 if n else 0)
+        self.pos = at + 8 * n
+        if self.pos > len(self.data):
+            raise self._truncated(field, at, 8 * n)
+        return at, n
+
+
+_F64S: dict[int, struct.Struct] = {}
+
+
+def _float64s(n: int) -> struct.Struct:
+    packer = _F64S.get(n)
+    if packer is None:
+        packer = _F64S[n] = struct.Struct(f"<{n}d")
+    return packer
+
+
+_JOINT_STATE = "sensor_msgs/msg/JointState"
+_LABELLED = "std_msgs/msg/Float64MultiArray"
+
+
+def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int], int]:
+    """``(stamp ns, (offset, count) of position, of velocity, end)`` of a serialised JointState:
+    header (stamp, frame_id), name (strings), position, velocity, effort (float64 sequences);
+    ``end``: the byte after the last field."""
+    r = _Cdr(data, _JOINT_STATE)
+    stamp = r.stamp_ns()
+    r.string("header.frame_id")
+    for _ in range(r.u32("name")):
+        r.string("name[i]")
+    position = r.f64_block("position")
+    velocity = r.f64_block("velocity")
+    r.f64_block("effort")
+    return stamp, position, velocity, r.pos
+
+
+def joint_state(data) -> tuple[int, tuple[float, ...], tuple[float, ...]]:
+    """``(stamp in ns, position, velocity)`` of a serialised sensor_msgs/JointState (the
+    ``rotor/joint_state`` of :class:`RotorBytes` or any other); :class:`MessageError` for bytes
+    that are not one."""
+    stamp, (p_at, n_p), (v_at, n_v), _ = _joint_state_blocks(data)
+    return stamp, _float64s(n_p).unpack_from(data, p_at), _float64s(n_v).unpack_from(data, v_at)
+
+
+def _labelled_layout(data) -> tuple[str, int, int]:
+    """``(label, byte offset of data, element count)`` of a serialised Float64MultiArray:
+    ``{layout: {dim: [{label, size, stride}], data_offset}, data}``. The label is that of the
+    only dimension ("" unless there is exactly one)."""
+    r = _Cdr(data, _LABELLED)
+    dims = []
+    for _ in range(r.u32("layout.dim")):
+        dims.append(r.string("layout.dim[i].label"))
+        r.u32("layout.dim[i].size")
+        r.u32("layout.dim[i].stride")
+    r.u32("layout.data_offset")
+    at, n = r.f64_block("data")
+    return (dims[0] if len(dims) == 1 else ""), at, n
+
+
+def labelled_array(data) -> tuple[str, tuple[float, ...]]:
+    """``(label, values)`` of a serialised labelled Float64MultiArray (see :class:`Labelled`;
+    the label is the comma-separated element names); :class:`MessageError` for bytes that are
+    not a Float64MultiArray."""
+    label, at, n = _labelled_layout(data)
+    return label, _float64s(n).unpack_from(data, at)
+
+
 class Labelled:
     """A reusable labelled Float64MultiArray (see rotor_avc.bag.topics). The graph's labelled
     arrays carry the sample time ``t_k`` as their first element, labelled ``time_s`` (the
@@ -136,7 +270,27 @@ class Labelled:
         return self.msg
 
 
-_LABELLED = "std_msgs/msg/Float64MultiArray"
+class LabelledBytes:
+    """A labelled array ``time_s, *names`` as serialised bytes (the graph's hot path, as
+    :class:`StampedVector`): a template of :class:`Labelled` serialised once, ``fill`` writes
+    the values into it."""
+
+    def __init__(self, names):
+        self.names = ("time_s",) + tuple(names)
+        self.label = ",".join(self.names)
+        buf = serialize_message(Labelled(self.names).fill([0.0] * len(self.names)))
+        _, at, n = _labelled_layout(buf)
+        self._buf = bytearray(buf[:at + 8 * n])      # without trailing bytes (see RotorBytes)
+        self._values = np.frombuffer(self._buf, dtype="<f8", count=n, offset=at)
+
+    def fill(self, time_s: float, values) -> bytes:
+        """The message with ``data = [time_s, *values]``, one value per name."""
+        if len(values) != len(self.names) - 1:
+            raise ValueError(f"{len(values)} values for the {len(self.names) - 1} names "
+                             f"{self.label[7:]}")
+        self._values[0] = time_s
+        self._values[1:] = values
+        return bytes(self._buf)
 
 
 def _stamp_first(data: bytes) -> int | None:
@@ -148,24 +302,14 @@ def _stamp_first(data: bytes) -> int | None:
 
 
 def _labelled_time(data: bytes) -> int | None:
-    """``time_s`` (the first element) of a serialised labelled Float64MultiArray, in ns.
-
-    CDR of ``{layout: {dim: [{label, size, stride}], data_offset}, data}``: offsets count from
-    the end of the 4-byte encapsulation header, each primitive aligned to its size."""
+    """``time_s`` (the first element) of a serialised labelled Float64MultiArray, in ns."""
     try:
-        if data[1] != _CDR_LE or _U32.unpack_from(data, 4)[0] != 1:
-            return None
-        (n,) = _U32.unpack_from(data, 8)                  # label length with its NUL
-        label = data[12:12 + n]
-        if not (label.startswith(b"time_s") and label[6:7] in (b",", b"\0")):
-            return None
-        pos = 4 + (12 + n - 4 + 3) // 4 * 4               # size, stride, data_offset, count
-        if _U32.unpack_from(data, pos + 12)[0] < 1:
-            return None
-        pos = 4 + (pos + 16 - 4 + 7) // 8 * 8
-        return time_to_ns(_F64.unpack_from(data, pos)[0])
-    except (struct.error, IndexError):
+        label, at, n = _labelled_layout(data)
+    except MessageError:
         return None
+    if n < 1 or label.split(",", 1)[0] != "time_s":
+        return None
+    return time_to_ns(_F64.unpack_from(data, at)[0])
 
 
 def raw_time_reader(msg_type: str) -> Callable[[bytes], int | None]:
@@ -179,11 +323,6 @@ def raw_time_reader(msg_type: str) -> Callable[[bytes], int | None]:
     if first and first[0] in ("std_msgs/Header", "builtin_interfaces/Time"):
         return _stamp_first
     return lambda data: None
-
-
-def labels(msg: Float64MultiArray) -> list[str]:
-    dims = msg.layout.dim
-    return dims[0].label.split(",") if len(dims) == 1 and dims[0].label else []
 
 
 class Rotor:
@@ -201,6 +340,29 @@ class Rotor:
         self.joint.position = [angle_rad]
         self.joint.velocity = [speed_rad_s]
         return self.joint, self.clock
+
+
+class RotorBytes:
+    """``rotor/joint_state`` and ``/clock`` of :class:`Rotor` as serialised bytes (the hot path):
+    templates serialised once, ``fill`` writes stamp, angle and speed into them. rclpy's
+    ``serialize_message`` may leave bytes after the last field (4 for this JointState), which a
+    published message does not have and a strict reader (rosbags: at most 3) refuses: the
+    templates end at their last field."""
+
+    def __init__(self):
+        joint, clock = Rotor().fill(0, 0.0, 0.0)
+        data = serialize_message(joint)
+        _, (self._angle_at, _), (self._speed_at, _), end = _joint_state_blocks(data)
+        self._joint = bytearray(data[:end])
+        self._clock = bytearray(serialize_message(clock)[:12])     # header, Time
+
+    def fill(self, time_ns: int, angle_rad: float, speed_rad_s: float) -> tuple[bytes, bytes]:
+        sec_nsec = divmod(int(time_ns), _BILLION)
+        _STAMP.pack_into(self._joint, 4, *sec_nsec)
+        _STAMP.pack_into(self._clock, 4, *sec_nsec)
+        _F64.pack_into(self._joint, self._angle_at, angle_rad)
+        _F64.pack_into(self._joint, self._speed_at, speed_rad_s)
+        return bytes(self._joint), bytes(self._clock)
 
 
 LEVELS = {"ok": DiagnosticStatus.OK, "warn": DiagnosticStatus.WARN,

@@ -19,17 +19,24 @@ recorder (rotor_avc.nodes.recorder) subscribes to every topic of the run and the
 publishers have matched its subscriptions, so the bag holds every sample (topics are volatile:
 a message published before a subscriber matched is never delivered to it).
 
+The lockstep messages travel as serialised bytes (rotor_avc.nodes.messages: raw publishers and
+subscriptions, the same messages on the wire); a malformed answer is ignored and reported as a
+fault.
+
 Every node reports its loop timing and faults on ``/diagnostics`` once per second (wall clock).
 With ``result_path`` set, the run's time series is saved there at the end (``.npz``, the format
 of rotor_avc.sim.timeseries, or ``.mcap`` in the bag format).
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..errors import RotorAvcError
@@ -100,11 +107,11 @@ class PlantSimulator(Node):
                                                         m.LOCKSTEP_QOS),
                                   m.Measurement(kind, act.id, act.axis),
                                   lay.feedback_index(act.id, kind)))
-        self.rotor = m.Rotor()
-        self.pub_joint = self.create_publisher(type(self.rotor.joint), m.topic("rotor/joint_state", ns),
+        self.rotor = m.RotorBytes()           # joint_state, clock, observables: raw as self.meas
+        self.pub_joint = self.create_publisher(JointState, m.topic("rotor/joint_state", ns),
                                                m.LOCKSTEP_QOS)
-        self.pub_clock = self.create_publisher(type(self.rotor.clock), "/clock", m.LOCKSTEP_QOS)
-        self.observables = m.Labelled(["time_s"] + lay.names)
+        self.pub_clock = self.create_publisher(Clock, "/clock", m.LOCKSTEP_QOS)
+        self.observables = m.LabelledBytes(lay.names)
         self.pub_obs = self.create_publisher(Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
@@ -115,16 +122,20 @@ class PlantSimulator(Node):
             self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
                                      lambda data, f=foot: self._on_force(f, data), m.LOCKSTEP_QOS,
                                      raw=True)
-        self.correction_names = [f"{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
+        command = ["time_s"] + [f"{e.name}_{part}" for e in plant.excitations
+                                for part in ("re", "im")]
+        self.command_label, self.command_size = ",".join(command), len(command)
         if self.p["balancer"]:
             self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
-                                     self._on_balancer, m.LOCKSTEP_QOS)
+                                     self._on_balancer, m.LOCKSTEP_QOS, raw=True)
         self.last_force_time = {foot: None for foot in self.driven}
         self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
         self.Y = np.empty((self.n_steps, len(lay.names)))
         self.U = np.empty((self.n_steps, self.stepper.n_inputs))
         self.C = (np.zeros((self.n_steps, len(plant.excitations)), complex)
                   if self.p["balancer"] else None)
+        self.applied = None                   # the balancer's answer applied last (raw values)
+        self.correction = None                # and the stepper's correction since (C's row)
         self.k = 0
         self.y = None
         self.started = False
@@ -178,6 +189,7 @@ class PlantSimulator(Node):
         # the periodic steady state depends on the controllers: the plant builds its own copies
         # of them for that computation only (the controller nodes compute the same)
         self.y = start(self.stepper, sc.controllers(), sc.initial_state)
+        self.correction = list(self.stepper.correction.values())
         self.started = True
         self.t_start = time.monotonic()
         self._publish_sample()
@@ -197,14 +209,18 @@ class PlantSimulator(Node):
         joint, clock = self.rotor.fill(t_ns, angle, speed)
         self.pub_joint.publish(joint)
         self.pub_clock.publish(clock)
-        self.pub_obs.publish(self.observables.fill([k * self.T] + y.tolist()))
+        self.pub_obs.publish(self.observables.fill(k * self.T, y))
         if begin:
             self.book.begin(t_ns, time.monotonic())
         if timed:
             self.timing.stop()
 
     def _on_force(self, foot: str, data: bytes) -> None:
-        stamp, value = m.stamped_value(data, self.axis[foot])   # raw: see messages.StampedVector
+        try:
+            stamp, value = m.stamped_value(data, self.axis[foot])   # raw: messages.StampedVector
+        except ValueError as exc:
+            self._fault(f"{foot}: actuator force ignored: {exc}")
+            return
         self.last_force_time[foot] = time.monotonic()
         if self.p["mode"] == "realtime":
             if not self.book.responders[foot].present:
@@ -214,16 +230,22 @@ class PlantSimulator(Node):
         if self.started and not self.finished and self.book.receive(foot, stamp, value):
             self._advance()
 
-    def _on_balancer(self, msg: Float64MultiArray) -> None:
-        names = m.labels(msg)
-        if names != ["time_s"] + self.correction_names:
-            self._fault(f"balancer command labels {names} are not time_s + {self.correction_names}")
+    def _on_balancer(self, data: bytes) -> None:
+        """The balancer's answer: ``(re, im)`` per excitation after ``time_s`` (raw, see
+        messages.labelled_array); applied as a correction in :meth:`_advance`."""
+        try:
+            label, values = m.labelled_array(data)
+            if label != self.command_label or len(values) != self.command_size:
+                raise m.MessageError(f"labelled {label!r} with {len(values)} values, not "
+                                     f"{self.command_label!r}")
+            if not all(map(math.isfinite, values)):
+                raise m.MessageError(f"{values} is not finite")
+            stamp = m.received_time_ns(values[0])
+        except m.MessageError as exc:
+            self._fault(f"balancer command ignored: {exc}")
             return
-        data = msg.data
-        corr = {e.name: complex(data[1 + 2 * j], data[2 + 2 * j])
-                for j, e in enumerate(self.stepper.plant.excitations)}
         if (self.started and not self.finished
-                and self.book.receive("balancer", m.time_to_ns(data[0]), corr)):
+                and self.book.receive("balancer", stamp, values[1:])):
             self._advance()
 
     def _forces(self) -> np.ndarray:
@@ -234,10 +256,13 @@ class PlantSimulator(Node):
         """All answers of sample k are in: record, hold u_k, step to k+1, publish it."""
         u = self._forces()
         if self.C is not None:
-            corr = self.book.value("balancer", None)
-            if corr is not None:
-                self.stepper.set_correction(corr)
-            self.C[self.k] = list(self.stepper.correction.values())
+            values = self.book.value("balancer", None)
+            if values is not None and values != self.applied:     # unchanged: nothing to set
+                self.stepper.set_correction({e.name: complex(values[2 * j], values[2 * j + 1])
+                                             for j, e in enumerate(self.stepper.plant.excitations)})
+                self.applied = values
+                self.correction = list(self.stepper.correction.values())
+            self.C[self.k] = self.correction
         self.Y[self.k] = self.y
         self.U[self.k] = u
         self.y = self.stepper.step(u)

@@ -58,6 +58,8 @@ _NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 #: after our side matched: time for the other sides to match us too (DDS matches each side on
 #: its own; a message sent before the subscriber's side matched is not delivered to it)
 SETTLE_S = 0.2
+#: the answering topics are taken once their set has not changed for this long (discovery)
+LIVE_STABLE_S = 1.0
 #: lockstep: an unanswered trigger is published again after this wall time
 RESEND_AFTER_S = 0.25
 
@@ -194,9 +196,21 @@ class Replayer(Node):
         """Wait for subscribers of the replayed topics, then subscribe to the live answers."""
         t_end = time.monotonic() + discovery_timeout_s
         _spin_until(executor, self._subscribed, t_end)
+        # a node's publishers may be discovered after its subscriptions: take the answering
+        # topics once the set has been stable for LIVE_STABLE_S (bounded by the timeout)
+        live, since = None, time.monotonic()
+        t_live_end = max(t_end, since + 2 * LIVE_STABLE_S)
+        while time.monotonic() < t_live_end:
+            graph = dict(self.get_topic_names_and_types())
+            now_live = {trigger: a for trigger, a in self.plan.answers.items()
+                        if self.count_publishers(a.topic) > 0 and a.topic in graph}
+            if live is None or now_live.keys() != live.keys():
+                live, since = now_live, time.monotonic()
+            elif time.monotonic() - since >= LIVE_STABLE_S:
+                break
+            executor.spin_once(timeout_sec=0.05)
         graph = dict(self.get_topic_names_and_types())
-        self.live = {trigger: a for trigger, a in self.plan.answers.items()
-                     if self.count_publishers(a.topic) > 0 and a.topic in graph}
+        self.live = {trigger: a for trigger, a in (live or {}).items() if a.topic in graph}
         subs = {}
         for topic in {a.topic for a in self.live.values()}:
             msg_type = graph[topic][0]

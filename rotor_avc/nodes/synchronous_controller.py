@@ -8,7 +8,9 @@ scenario's ``simulation.feedforward`` builds it (the block the in-process loop r
 ``rotor/joint_state`` (shaft angle, speed at ``t_k``) it publishes the force of each of its
 actuators on ``foot/<id>/actuator_force`` stamped ``t_k`` -- the plant waits for these answers in
 lockstep as it does for foot controllers. A repeated stamp (the plant resending) is answered from
-the cache; a non-finite angle or speed holds the last forces and says why.
+the cache; a non-finite angle or speed holds the last forces and says why. Joint states and
+forces travel as serialised bytes (rotor_avc.nodes.messages: raw subscription and publishers,
+the same messages on the wire); a malformed joint state is ignored and reported.
 """
 from __future__ import annotations
 
@@ -53,7 +55,7 @@ class SynchronousController(Node):
             self.outputs.append((self.create_publisher(m.STAMPED_TYPES["actuator_force"], m.foot_topic(
                 act_id, "actuator_force", ns), m.LOCKSTEP_QOS), force))
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
-                                 m.LOCKSTEP_QOS)
+                                 m.LOCKSTEP_QOS, raw=True)
         self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
@@ -62,24 +64,31 @@ class SynchronousController(Node):
         self.faults = 0
         self.last_fault = ""
 
-    def _on_joint(self, msg: JointState) -> None:
-        stamp = m.stamp_ns(msg.header.stamp)
-        angle = msg.position[0] if msg.position else math.nan
-        speed = msg.velocity[0] if msg.velocity else math.nan
+    def _on_joint(self, data: bytes) -> None:
+        try:
+            stamp, position, velocity = m.joint_state(data)
+        except m.MessageError as exc:
+            self._fault(f"rotor/joint_state ignored: {exc}")
+            return
+        angle = position[0] if position else math.nan
+        speed = velocity[0] if velocity else math.nan
         if stamp > self.last_stamp:
             self.timing.start()
             if math.isfinite(angle) and math.isfinite(speed):
                 self.forces = self.generator.step(angle, speed).tolist()
             else:
-                self.faults += 1
-                self.last_fault = f"non-finite shaft angle/speed at {stamp} ns: forces held"
-                self.get_logger().warning(self.last_fault)
+                self._fault(f"non-finite shaft angle/speed at {stamp} ns: forces held")
             self.last_stamp = stamp
             self.timing.stop()
         elif stamp < self.last_stamp:
             return                                   # stale: the plant has moved on
         for (pub, force), value in zip(self.outputs, self.forces):
             pub.publish(force.fill(stamp, value))
+
+    def _fault(self, text: str) -> None:
+        self.faults += 1
+        self.last_fault = text
+        self.get_logger().warning(text)
 
     def _publish_diagnostics(self) -> None:
         stats = self.timing.summary()
