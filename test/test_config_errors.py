@@ -1,6 +1,5 @@
 """Bad configurations each give a clear error naming the field and the fix -- never a traceback
 from deep inside numpy and never silently wrong numbers."""
-import shutil
 import subprocess
 import sys
 from pathlib import Path

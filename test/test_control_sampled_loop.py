@@ -238,7 +238,7 @@ def test_seed001_displacement_and_velocity_trends(seed001_limits):
     assert d5 / d1 > 5
     (v1, v5, v20), k_vel, _ = seed001_limits["velocity"]
     assert min(v1, v5, v20) > k_vel
-    print(f"\nseed 001 limits at 1/5/20 kHz: acceleration "
+    print("\nseed 001 limits at 1/5/20 kHz: acceleration "
           + "/".join(f"{v:.3g}" for v in seed001_limits["acceleration"][0])
           + " kg, displacement " + "/".join(f"{v:.3g}" for v in (d1, d5, d20))
           + " N/m, velocity " + "/".join(f"{v:.3g}" for v in (v1, v5, v20)) + " N s/m")

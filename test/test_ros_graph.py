@@ -1,9 +1,7 @@
 """Launch-free integration tests of the ROS graph: plant, foot controllers and balancer in rclpy
 executors (one process) and as separate processes over DDS on loopback. The lockstep graph must
 reproduce the in-process loop (rotor_avc.sim.loop) exactly."""
-import json
 import math
-import time
 
 import numpy as np
 import pytest

@@ -77,7 +77,7 @@ def run(args) -> int:
         print(f"{60 * f:7.0f} {f_un[k]:9.4g}{cols} {1e6 * stroke[k]:11.4g} {volts[k]:9.3g}")
 
     tables = {m: side_table(cases[m]) for m in METHODS}
-    print(f"\nRMS averaged per side (L: bearing-1 side, R: bearing-2 side) [um] and IL (eq. 43) [dB]")
+    print("\nRMS averaged per side (L: bearing-1 side, R: bearing-2 side) [um] and IL (eq. 43) [dB]")
     print(f"{'rpm':>7} {'side':>4} {'plane':>5} {'before':>10}"
           + "".join(f" {'after ' + m:>12} {'IL ' + m:>10}" for m in METHODS))
     rows = []

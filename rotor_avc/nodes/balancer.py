@@ -31,9 +31,8 @@ from ..balancing.loop_block import LoopBalancer
 from ..balancing.scenario import machine_setup
 from ..errors import RotorAvcError
 from ..sim.loop import LoopSample
-from ..sim.scenario import load_scenario
 from . import messages as m
-from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
 
 PARAMS = COMMON_PARAMS + (
@@ -49,10 +48,7 @@ class Balancer(Node):
         super().__init__(name, **kwargs)
         self.p = declare_parameters(self, PARAMS)
         self.executor_kind = self.p["executor"]
-        if not self.p["scenario"]:
-            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give "
-                                "a scenario with a `balancer:` section")
-        sc = load_scenario(self.p["scenario"])
+        sc = node_scenario(self, self.p["scenario"], "a scenario with a `balancer:` section")
         if "balancer" not in sc.machine.config.data:
             raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
                                 "`balancer:` section -- fix: use a balancer scenario")

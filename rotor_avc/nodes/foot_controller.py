@@ -26,10 +26,10 @@ from rclpy.node import Node
 
 from ..control.block import build_digital_controllers
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
 from ..sim.steady_state import start_in_steady_state
 from . import messages as m
-from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .runtime import (COMMON_PARAMS, Param, ParameterError, declare_parameters, node_scenario,
+                      run_node)
 from .timing import LoopTiming
 
 PARAMS = COMMON_PARAMS + (
@@ -50,10 +50,10 @@ class FootController(Node):
         self.p = declare_parameters(self, PARAMS)
         self.executor_kind = self.p["executor"]
         foot = self.p["foot_id"]
-        if not self.p["scenario"] or not foot:
-            raise RotorAvcError(f"{self.get_name()}: parameters 'scenario' and 'foot_id' are "
-                                "required -- fix: -p scenario:=<config> -p foot_id:=DL")
-        sc = load_scenario(self.p["scenario"])
+        if not foot:
+            raise ParameterError(f"{self.get_name()}: parameter 'foot_id' is empty -- fix: "
+                                 "-p foot_id:=DL (a foot with a controller in the scenario)")
+        sc = node_scenario(self, self.p["scenario"], "the scenario holding this foot's controller")
         controllers = build_digital_controllers(sc.machine, sc.sample_period_s)
         if foot not in controllers:
             raise RotorAvcError(f"{self.get_name()}: foot_id {foot!r} has no controller in "

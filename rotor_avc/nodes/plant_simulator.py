@@ -39,12 +39,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ..errors import RotorAvcError
 from ..sim.loop import forces_from_answers, start, timeseries_from_run
-from ..sim.scenario import load_scenario
 from . import messages as m
 from .lockstep import POLICIES, AnswerBook
-from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
 
 PARAMS = COMMON_PARAMS + (
@@ -79,10 +77,7 @@ class PlantSimulator(Node):
         super().__init__(name, **kwargs)
         self.p = declare_parameters(self, PARAMS)
         self.executor_kind = self.p["executor"]
-        if not self.p["scenario"]:
-            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give a "
-                                "scenario config, e.g. -p scenario:=scenario_case3_steady")
-        self.scenario = load_scenario(self.p["scenario"])
+        self.scenario = node_scenario(self, self.p["scenario"], "a scenario config")
         sc = self.scenario
         self.T = sc.sample_period_s
         self.n_steps = (max(1, int(round(self.p["duration_s"] / self.T))) if self.p["duration_s"]

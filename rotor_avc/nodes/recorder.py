@@ -46,9 +46,8 @@ from ..bag.metadata import qos_profiles
 from ..bag.msgdefs import DEFINITIONS
 from ..bag.writer import BagWriter
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
 from . import messages as m
-from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config of the run (stored in the bag's metadata)"),
@@ -74,10 +73,8 @@ class Recorder(Node):
         if not self.p["path"]:
             raise RotorAvcError(f"{self.get_name()}: parameter 'path' is empty -- fix: "
                                 "-p path:=bags/run.mcap")
-        if not self.p["scenario"]:
-            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give "
-                                "the run's scenario config, so the bag describes itself")
-        config = load_scenario(self.p["scenario"]).run_config()
+        config = node_scenario(self, self.p["scenario"],
+                               "the run's scenario config, so the bag describes itself").run_config()
         compression = "" if self.p["compression"] == "none" else self.p["compression"]
         self.writer = BagWriter(self.p["path"], config, compression=compression,
                                 chunk_size=self.p["chunk_size_bytes"])

@@ -22,6 +22,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
+from ..sim.scenario import load_scenario
 
 EXECUTORS = ("events", "single_threaded", "multi_threaded")
 
@@ -95,6 +96,15 @@ def declare_parameters(node: Node, params: Sequence[Param]) -> dict[str, Any]:
 COMMON_PARAMS = (
     Param("executor", "events", "rclpy executor that spins this node", choices=EXECUTORS),
 )
+
+
+def node_scenario(node: Node, name: str, needs: str):
+    """The scenario every node is configured with (parameter ``scenario``), loaded and
+    validated; an empty parameter is refused naming what this node ``needs`` from it."""
+    if not name:
+        raise ParameterError(f"{node.get_name()}: parameter 'scenario' is empty -- fix: give "
+                             f"{needs}, e.g. -p scenario:=scenario_case3_steady")
+    return load_scenario(name)
 
 
 def make_executor(kind: str, context=None):

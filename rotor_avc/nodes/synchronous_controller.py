@@ -20,9 +20,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
 from . import messages as m
-from .runtime import COMMON_PARAMS, Param, declare_parameters, run_node
+from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
 
 PARAMS = COMMON_PARAMS + (
@@ -38,10 +37,7 @@ class SynchronousController(Node):
         super().__init__(name, **kwargs)
         self.p = declare_parameters(self, PARAMS)
         self.executor_kind = self.p["executor"]
-        if not self.p["scenario"]:
-            raise RotorAvcError(f"{self.get_name()}: parameter 'scenario' is empty -- fix: give "
-                                "a scenario with `simulation.feedforward`")
-        sc = load_scenario(self.p["scenario"])
+        sc = node_scenario(self, self.p["scenario"], "a scenario with `simulation.feedforward`")
         self.generator = sc.feedforward()
         if self.generator is None:
             raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
