@@ -204,6 +204,7 @@ class PlantStepper:
         T, tab = self.T, self.table
         t = np.arange(k0, k0 + CHUNK + 1) * T
         speed, accel, angle = self.profile.sample(t)
+        self._at = list(zip(speed.tolist(), accel.tolist(), angle.tolist()))   # t_k0 .. t_k0+CHUNK
         speed_m, accel_m, _ = self.profile.sample(t[:-1] + 0.5 * T)
         rot = np.exp(1j * angle)[:, None]
         h_meas = self.coefficients(speed, accel) * rot
@@ -300,6 +301,5 @@ class PlantStepper:
         return self._v[self._lay.u].copy()
 
     def speed_state(self) -> tuple[float, float, float]:
-        """``(Omega, Omega', theta)`` at ``t_k``."""
-        speed, accel, angle = self.profile.sample(np.array(self.time_s))
-        return float(speed), float(accel), float(angle)
+        """``(Omega, Omega', theta)`` at ``t_k`` (from the chunk's precomputed samples)."""
+        return self._at[self.k - self._k0]
