@@ -52,16 +52,20 @@ def run_graph(scenario: str, executor_kind: str = "events", controllers=FEET, **
         scenario=scenario, executor=executor_kind, **plant_params))
     ctrls = [FootController(f"foot_controller_{f}", parameter_overrides=params(
         scenario=scenario, foot_id=f)) for f in controllers]
+    return run_to_end(plant, ctrls, executor_kind)
+
+
+def run_to_end(plant, others, executor_kind: str = "events", timeout_s: float = 180.0):
+    """Spin the plant and the other nodes in one executor until the run is complete."""
     ex = make_executor(executor_kind)
-    for n in [plant, *ctrls]:
+    for n in [plant, *others]:
         ex.add_node(n)
     try:
-        assert spin_until(ex, lambda: plant.finished, timeout_s=120)
+        assert spin_until(ex, lambda: plant.finished, timeout_s=timeout_s)
     finally:
         ex.shutdown()
-        for n in ctrls:
+        for n in [*others, plant]:
             n.destroy_node()
-        plant.destroy_node()
     return plant
 
 
@@ -175,15 +179,7 @@ simulation:
 """)
     plant = PlantSimulator("plant_bal", parameter_overrides=params(scenario=str(path), balancer=True))
     bal = Balancer("balancer", parameter_overrides=params(scenario=str(path)))
-    ex = make_executor("events")
-    for n in (plant, bal):
-        ex.add_node(n)
-    try:
-        assert spin_until(ex, lambda: plant.finished, timeout_s=180)
-    finally:
-        ex.shutdown()
-        plant.destroy_node()
-        bal.destroy_node()
+    run_to_end(plant, [bal])
     ts = plant.result()
     sc = load_scenario(str(path))
     ref = run_loop(sc.stepper(), {}, plant.n_steps, balancer=sc.balancer(), progress=False)
@@ -219,15 +215,7 @@ def test_feedforward_node_in_lockstep_equals_in_process():
                                                                   duration_s=0.05))
     ff = SynchronousController("synchronous_controller", parameter_overrides=params(
         scenario=scenario))
-    ex = make_executor("events")
-    for n in (plant, ff):
-        ex.add_node(n)
-    try:
-        assert spin_until(ex, lambda: plant.finished, timeout_s=120)
-    finally:
-        ex.shutdown()
-        plant.destroy_node()
-        ff.destroy_node()
+    run_to_end(plant, [ff])
     ts = plant.result()
     sc = load_scenario(scenario)
     ref = run_loop(sc.stepper(), {}, plant.n_steps, feedforward=sc.feedforward(), progress=False)
