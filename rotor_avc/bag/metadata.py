@@ -21,6 +21,8 @@ from .. import __version__
 from .errors import BagError
 
 CONFIG_RECORD = "rotor_avc"
+#: per topic: messages published (publishers' side), recorded, lost (written on close)
+COUNTS_RECORD = "rotor_avc_counts"
 FORMAT = "rotor_avc.bag/1"
 #: configuration sections a run records; ``machine`` is required, the others may be null
 CONFIG_SECTIONS = ("machine", "controllers", "discretisation", "balancer", "speed_profile",
@@ -156,4 +158,27 @@ def decode_config(record: Mapping[str, str], path) -> dict[str, Any]:
     if not isinstance(out.get("machine"), Mapping):
         raise BagError(path, "the configuration metadata has no `machine` section",
                        fix="re-record the run with the package's recorder or simulator")
+    return out
+
+
+def encode_counts(counts: Mapping[str, Mapping[str, int | None]]) -> dict[str, str]:
+    """The ``rotor_avc_counts`` record: ``{topic: "published=N recorded=M lost=L"}``; a count
+    nobody reported is ``?`` (e.g. the published count of a publisher outside this package)."""
+    def text(v):
+        return "?" if v is None else str(int(v))
+    return {topic: " ".join(f"{k}={text(c.get(k))}" for k in ("published", "recorded", "lost"))
+            for topic, c in sorted(counts.items())}
+
+
+def decode_counts(record: Mapping[str, str], path) -> dict[str, dict[str, int | None]]:
+    """Inverse of :func:`encode_counts`."""
+    out = {}
+    for topic, text in record.items():
+        try:
+            fields = dict(item.split("=", 1) for item in text.split())
+            out[topic] = {k: None if fields[k] == "?" else int(fields[k])
+                          for k in ("published", "recorded", "lost")}
+        except (KeyError, ValueError):
+            raise BagError(path, f"message counts of {topic} are unreadable ({text!r})",
+                           fix="the bag's metadata is damaged; re-record the run") from None
     return out

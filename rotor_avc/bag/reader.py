@@ -30,7 +30,7 @@ from mcap.reader import SeekingReader
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
 from .mcap_writer import MAGIC, MESSAGE_HEADER
-from .metadata import CONFIG_RECORD, decode_config, parse_qos_yaml
+from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
 from .topics import labels_of
 
@@ -177,6 +177,13 @@ class BagReader:
                            "metadata record)", fix="record the run with rotor_avc's recorder "
                            "or simulator, which store the configuration in the bag")
         return decode_config(record, self.path)
+
+    @property
+    def counts(self) -> dict[str, dict[str, int | None]] | None:
+        """Per topic ``{"published", "recorded", "lost"}`` as the recording wrote them (None for
+        a bag without the ``rotor_avc_counts`` record, e.g. one from ``ros2 bag record``)."""
+        record = self.metadata.get(COUNTS_RECORD)
+        return None if record is None else decode_counts(record, self.path)
 
     def check(self, *, require_config: bool = False, require_messages: bool = False) -> None:
         """Raise the BagError a command needs: configuration present, messages present."""

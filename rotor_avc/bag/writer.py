@@ -29,7 +29,8 @@ from .. import __version__
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
 from .mcap_writer import MESSAGE_DTYPE, McapSink
-from .metadata import CONFIG_RECORD, encode_config, qos_profiles, qos_yaml, rosbag2_record
+from .metadata import (CONFIG_RECORD, COUNTS_RECORD, encode_config, encode_counts, qos_profiles,
+                       qos_yaml, rosbag2_record)
 from .msgdefs import MsgDefError, full_name, full_text, known_specs, type_hash
 from .topics import Stream, message_type
 
@@ -210,13 +211,28 @@ class BagWriter:
         if self._closed:
             raise BagError(self.path, "the bag is already closed")
 
-    def close(self) -> None:
-        """Finish the file: last chunk, rosbag2 metadata record, summary, footer."""
+    @property
+    def recorded_counts(self) -> dict[str, int]:
+        """Messages written so far per topic (also those still in the chunk being filled)."""
+        return {name: t.sequence for name, t in self._topics.items()}
+
+    def close(self, published: Mapping[str, int | None] | None = None,
+              lost: Mapping[str, int] | None = None) -> None:
+        """Finish the file: last chunk, message counts, rosbag2 metadata record, summary, footer.
+
+        Every bag carries, per topic, the messages recorded and -- from the publishers' side --
+        published (``published``; default: as many as recorded, for a writer that is its own
+        publisher) and known lost (``lost``, default 0), in the ``rotor_avc_counts`` record."""
         if self._closed:
             return
         self._closed = True
         sink = self._sink
         sink.flush_chunk()
+        recorded = {name: sink.counts[t.channel_id] for name, t in self._topics.items()}
+        published = dict(recorded if published is None else published)
+        sink.add_metadata(COUNTS_RECORD, encode_counts(
+            {name: {"published": published.get(name), "recorded": n,
+                    "lost": (lost or {}).get(name, 0)} for name, n in recorded.items()}))
         topics = [{"name": name, "type": t.msg_type, "qos": t.qos, "hash": t.type_hash,
                    "count": sink.counts[t.channel_id]} for name, t in self._topics.items()]
         sink.add_metadata("rosbag2", rosbag2_record(

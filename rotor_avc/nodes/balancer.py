@@ -32,6 +32,7 @@ from ..balancing.scenario import machine_setup
 from ..errors import RotorAvcError
 from ..sim.loop import LoopSample
 from . import messages as m
+from . import taps
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
 
@@ -58,15 +59,15 @@ class Balancer(Node):
         self.command = m.LabelledBytes(names)
         self.estimate = m.LabelledBytes(names)
         ns = self.p["namespace"]
-        self.pub_cmd = self.create_publisher(Float64MultiArray, m.topic("balancer/command", ns),
+        self.pub_cmd = taps.publisher(self, Float64MultiArray, m.topic("balancer/command", ns),
                                              m.LOCKSTEP_QOS)
-        self.pub_est = self.create_publisher(Float64MultiArray, m.topic("balancer/estimate", ns),
+        self.pub_est = taps.publisher(self, Float64MultiArray, m.topic("balancer/estimate", ns),
                                              m.LOCKSTEP_QOS)
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
                                  m.LOCKSTEP_QOS, raw=True)
         self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
                                  self._on_observables, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.joints: dict[int, tuple[float, float]] = {}
@@ -158,7 +159,8 @@ class Balancer(Node):
         stats.update({"faults": self.faults, "mode": out.mode if out else "estimate"})
         level, text = ("warn", self.last_fault) if self.last_fault else ("ok", "balancing")
         self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0),
-                                            [(f"{self.get_name()}: balancer", level, text, stats)]))
+                                            [(f"{self.get_name()}: balancer", level, text, stats),
+                                             m.published_status(self)]))
 
 
 def main(args=None) -> int:

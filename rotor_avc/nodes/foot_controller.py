@@ -28,6 +28,7 @@ from ..control.block import build_digital_controllers
 from ..errors import RotorAvcError
 from ..sim.steady_state import start_in_steady_state
 from . import messages as m
+from . import taps
 from .runtime import (COMMON_PARAMS, Param, ParameterError, declare_parameters, node_scenario,
                       run_node)
 from .timing import LoopTiming
@@ -69,11 +70,11 @@ class FootController(Node):
         ns = self.p["namespace"]
         self.kind = self.ctrl.feedback
         self.force = m.Force(foot, self.axis)
-        self.pub = self.create_publisher(m.STAMPED_TYPES["actuator_force"],
+        self.pub = taps.publisher(self, m.STAMPED_TYPES["actuator_force"],
                                          m.foot_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
         self.create_subscription(m.MEASUREMENT_TYPES[self.kind], m.foot_topic(foot, self.kind, ns),
                                  self._on_measurement, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.last_stamp = -1
@@ -121,7 +122,8 @@ class FootController(Node):
         recent = self.last_fault and time.monotonic() - getattr(self, "t_fault", 0.0) < 5.0
         level, text = ("warn", self.last_fault) if recent else ("ok", self.ctrl.describe())
         self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0),
-                                            [(f"{self.get_name()}: {self.foot}", level, text, stats)]))
+                                            [(f"{self.get_name()}: {self.foot}", level, text, stats),
+                                             m.published_status(self)]))
 
 
 def main(args=None) -> int:

@@ -1,15 +1,28 @@
-"""Run a scenario as a ROS graph of separate processes, launch-free (the demo's engine).
+"""Run a scenario as a ROS graph, launch-free (the demo's engine), and record it.
 
-One process per node, as ``ros2 run`` would start them: the recorder, one ``foot_controller`` per
-controlled foot, the ``synchronous_controller`` for a feed-forward scenario, the ``balancer``
-when the scenario has one, and the ``plant_simulator`` in
-lockstep, which waits until the recorder listens to every topic of the run
-(``wait_for_recorder``), so the bag holds every sample. Progress comes from the plant's
-``/diagnostics`` (sample / samples_total), read by a small listener node in this process. When
-the plant has finished, the other nodes get SIGINT, which finalises the bag.
+Two layouts of the same nodes:
 
-The caller sets the ROS environment (``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_DOMAIN_ID``); the
-children inherit it.
+* **processes** (default): one process per node, as ``ros2 run`` would start them -- the
+  recorder, one ``foot_controller`` per controlled foot, the ``synchronous_controller`` for a
+  feed-forward scenario, the ``balancer`` when the scenario has one, and the ``plant_simulator``
+  in lockstep with ``wait_for_recorder``;
+* **composed**: all of them in one process and one executor (:func:`run_composed`, like a ROS 2
+  component container), the recorder taking the nodes' messages from their publishers
+  (recorder ``source: process``). The messages on the wire and in the bag are the same; it runs
+  several times faster, because a lockstep sample then needs no round trip between processes
+  (bench/bench_ros_loop.py measures both).
+
+Either way the bag holds every sample: the plant runs at most ``recorder_window`` samples ahead
+of what the recorder has taken, waits at the end until it has taken the last one, and ends with
+exit status 1 if the recorder disappears. Progress comes from the plant's ``/diagnostics``
+(sample / samples_total), read by a small listener node in this process. When the plant has
+finished, the other nodes get SIGINT (they publish their final counts), then the recorder,
+which finishes the bag; :attr:`GraphRun.counts` are the bag's messages published and recorded
+per topic.
+
+Node processes start with SIGINT/SIGTERM blocked until their handlers are in place
+(rotor_avc.nodes.signals.spawn). The caller sets the ROS environment
+(``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_DOMAIN_ID``); the children inherit it.
 """
 from __future__ import annotations
 
@@ -25,9 +38,14 @@ from typing import Callable
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 
+from ..bag.reader import BagReader
 from ..errors import RotorAvcError
 from ..sim.scenario import load_scenario
+from . import signals
 from .runtime import make_executor
+
+LAYOUTS = ("processes", "composed")
+STOP_TIMEOUT_S = 30.0
 
 
 @dataclass
@@ -38,71 +56,111 @@ class GraphRun:
     wall_s: float
     steps: int
     logs: dict[str, str]
+    counts: dict[str, dict[str, int | None]]
+
+    def lost(self) -> dict[str, int]:
+        """Topics whose recorded count is below the published one, with the difference."""
+        return {t: c["published"] - c["recorded"] for t, c in self.counts.items()
+                if c["published"] is not None and c["recorded"] < c["published"]}
 
 
-def _start(module: str, args: list[str], log_dir: Path, name: str) -> tuple[subprocess.Popen, Path]:
+def _start(command: list[str], log_dir: Path, name: str) -> tuple[subprocess.Popen, Path]:
     log = log_dir / f"{name}.log"
-    fh = open(log, "w")
-    proc = subprocess.Popen([sys.executable, "-m", f"rotor_avc.nodes.{module}", "--ros-args",
-                             "-r", f"__node:={name}", *args], stdout=fh, stderr=subprocess.STDOUT,
-                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
-    fh.close()
+    with open(log, "w") as fh:
+        proc = signals.spawn([sys.executable, *command], stdout=fh, stderr=subprocess.STDOUT,
+                             env=dict(os.environ, PYTHONUNBUFFERED="1"))
     return proc, log
+
+
+def _node(module: str, name: str, args: list[str]) -> list[str]:
+    return ["-m", f"rotor_avc.nodes.{module}", "--ros-args", "-r", f"__node:={name}", *args]
+
+
+def node_commands(scenario, bag: Path, layout: str = "processes") -> dict[str, list[str]]:
+    """The processes of a run: name -> interpreter arguments (the plant last)."""
+    if layout not in LAYOUTS:
+        raise RotorAvcError(f"unknown graph layout {layout!r} -- fix: use one of "
+                            + ", ".join(LAYOUTS))
+    source = str(scenario.machine.config.source)
+    if layout == "composed":
+        return {"composed": ["-m", "rotor_avc.nodes.composed", "--ros-args",
+                             "-p", f"scenario:={source}", "-p", f"path:={bag}"]}
+    common = ["-p", f"scenario:={source}"]
+    cmds = {"recorder": _node("recorder", "recorder", common + ["-p", f"path:={bag}"])}
+    for foot in scenario.machine.controllers:
+        cmds[f"foot_controller_{foot}"] = _node("foot_controller", f"foot_controller_{foot}",
+                                                common + ["-p", f"foot_id:={foot}"])
+    if scenario.feedforward_actuators():
+        cmds["synchronous_controller"] = _node("synchronous_controller",
+                                               "synchronous_controller", common)
+    plant_args = common + ["-p", "wait_for_recorder:=recorder"]
+    if scenario.use_balancer:
+        cmds["balancer"] = _node("balancer", "balancer", common)
+        plant_args += ["-p", "balancer:=true"]
+    cmds["plant_simulator"] = _node("plant_simulator", "plant_simulator", plant_args)
+    return cmds
 
 
 def run_graph(scenario_name: str, bag: Path, log_dir: Path,
               progress: Callable[[int, int], None] | None = None,
-              timeout_s: float = 3600.0) -> GraphRun:
+              timeout_s: float = 3600.0, layout: str = "processes") -> GraphRun:
     """Run ``scenario_name`` (a config name or path) through the ROS graph, recording ``bag``."""
     scenario = load_scenario(scenario_name)
-    source = str(scenario.machine.config.source)
     bag, log_dir = Path(bag), Path(log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     bag.parent.mkdir(parents=True, exist_ok=True)
     if bag.exists():
         bag.unlink()
-    common = ["-p", f"scenario:={source}"]
-    procs: dict[str, tuple[subprocess.Popen, Path]] = {}
-    procs["recorder"] = _start("recorder", common + ["-p", f"path:={bag}"], log_dir, "recorder")
-    for foot in scenario.machine.controllers:
-        procs[f"foot_controller_{foot}"] = _start(
-            "foot_controller", common + ["-p", f"foot_id:={foot}"], log_dir, f"foot_controller_{foot}")
-    if scenario.feedforward_actuators():
-        procs["synchronous_controller"] = _start("synchronous_controller", common, log_dir,
-                                                 "synchronous_controller")
-    plant_args = common + ["-p", "wait_for_recorder:=recorder"]
-    if scenario.use_balancer:
-        procs["balancer"] = _start("balancer", common, log_dir, "balancer")
-        plant_args += ["-p", "balancer:=true"]
-    procs["plant_simulator"] = _start("plant_simulator", plant_args, log_dir, "plant_simulator")
-    plant = procs["plant_simulator"][0]
+    cmds = node_commands(scenario, bag, layout)
     listener = _Progress(progress)
+    procs: dict[str, tuple[subprocess.Popen, Path]] = {}
+    main_name = next(reversed(cmds))          # the plant, or the one composed process
     t0 = time.monotonic()
     try:
-        while plant.poll() is None:
+        for name, cmd in cmds.items():
+            procs[name] = _start(cmd, log_dir, name)
+        main = procs[main_name][0]
+        while main.poll() is None:
             listener.spin(0.2)
             for name, (proc, log) in procs.items():
                 if proc.poll() not in (None, 0):
                     raise RotorAvcError(f"node {name} stopped with status {proc.returncode}: "
-                                        + log.read_text()[-600:].strip())
+                                        + _tail(log))
             if time.monotonic() - t0 > timeout_s:
                 raise RotorAvcError(f"the graph run did not finish within {timeout_s:g} s")
-        if plant.returncode != 0:
-            log = procs["plant_simulator"][1]
-            raise RotorAvcError(f"plant_simulator stopped with status {plant.returncode}: "
-                                + log.read_text()[-600:].strip())
+        if main.returncode != 0:
+            raise RotorAvcError(f"{main_name} stopped with status {main.returncode}: "
+                                + _tail(procs[main_name][1]))
         wall = time.monotonic() - t0
     finally:
-        for name, (proc, _) in procs.items():
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for name, (proc, _) in procs.items():
-            try:
-                proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        # controllers and balancer first (their final published counts reach the recorder)
+        _stop([p for n, (p, _) in procs.items() if n != "recorder"])
+        _stop([p for n, (p, _) in procs.items() if n == "recorder"])
         listener.close()
-    return GraphRun(bag, wall, listener.total, {n: log.read_text() for n, (_, log) in procs.items()})
+    logs = {n: log.read_text() for n, (_, log) in procs.items()}
+    recorder = "recorder" if "recorder" in procs else main_name
+    if procs[recorder][0].returncode != 0:
+        raise RotorAvcError(f"{recorder} stopped with status {procs[recorder][0].returncode}: "
+                            + _tail(procs[recorder][1]))
+    with BagReader(bag) as reader:
+        counts = reader.counts or {}
+    return GraphRun(bag, wall, listener.total, logs, counts)
+
+
+def _stop(procs: list[subprocess.Popen]) -> None:
+    for proc in procs:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+    for proc in procs:
+        try:
+            proc.wait(timeout=STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def _tail(log: Path, chars: int = 800) -> str:
+    return log.read_text()[-chars:].strip()
 
 
 class _Progress:
@@ -111,10 +169,11 @@ class _Progress:
     def __init__(self, callback):
         self.callback = callback
         self.total = 0
-        rclpy.init()
-        self.node = rclpy.create_node("rotor_avc_graph_progress")
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node("rotor_avc_graph_progress", context=self.context)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, 10)
-        self.executor = make_executor("events")
+        self.executor = make_executor("events", context=self.context)
         self.executor.add_node(self.node)
 
     def _on_diag(self, msg: DiagnosticArray) -> None:
@@ -135,4 +194,4 @@ class _Progress:
     def close(self) -> None:
         self.executor.shutdown()
         self.node.destroy_node()
-        rclpy.shutdown()
+        rclpy.shutdown(context=self.context)

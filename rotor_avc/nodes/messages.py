@@ -26,7 +26,7 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PointStamped, TwistStamped, WrenchStamped
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -35,9 +35,22 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from ..bag.msgdefs import DEFINITIONS
 from ..bag.topics import NAMESPACE, topic  # noqa: F401  (re-exported for the nodes)
 
-#: lockstep traffic: reliable, deep enough that a burst is never dropped
-LOCKSTEP_QOS = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE,
-                          history=HistoryPolicy.KEEP_LAST)
+#: history of the lockstep publishers: deeper than any recorder window (the plant's
+#: ``recorder_window`` is at most LOCKSTEP_DEPTH - RECORDER_MARGIN), so a writer never overwrites
+#: a message that a recording reader has not taken yet
+LOCKSTEP_DEPTH = 4096
+RECORDER_MARGIN = 96
+#: lockstep traffic: reliable, KEEP_LAST LOCKSTEP_DEPTH, offered transient-local: a reader that
+#: asks for it (the recorder) gets what was published before it matched -- discovery is
+#: asynchronous, so a subscription can exist before the publisher delivers to it -- while the
+#: controllers' volatile readers get only new samples
+LOCKSTEP_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
+                          history=HistoryPolicy.KEEP_LAST,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: the recorder's taken-message counts (rotor_avc.nodes.recorder), relative to the namespace
+RECORDER_PROGRESS = "recorder/progress"
+#: name suffix of the diagnostic status in which a node reports its published counts per topic
+PUBLISHED_SUFFIX = ": published"
 MEASUREMENT_TYPES = {"acceleration": AccelStamped, "velocity": TwistStamped,
                      "displacement": PointStamped}
 STAMPED_TYPES = {**MEASUREMENT_TYPES, "actuator_force": WrenchStamped}
@@ -379,6 +392,15 @@ def diagnostics(time_ns: int, statuses) -> DiagnosticArray:
         st.values = [KeyValue(key=str(k), value=_fmt(v)) for k, v in values.items()]
         arr.status.append(st)
     return arr
+
+
+def published_status(node) -> tuple:
+    """The diagnostic status ``"<node>: published"`` with the messages ``node`` has published
+    per topic (rotor_avc.nodes.taps), for :func:`diagnostics`: the publishers' side of a bag's
+    counts."""
+    from .taps import published_counts
+    return (f"{node.get_name()}{PUBLISHED_SUFFIX}", "ok", "messages published per topic",
+            published_counts(node))
 
 
 def _fmt(value) -> str:

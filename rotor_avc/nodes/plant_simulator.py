@@ -15,9 +15,24 @@ reproduces ``rotor-avc simulate`` exactly.
   a controller silent for longer than ``controller_timeout_s`` gets the fault policy.
 
 Recording: with ``wait_for_recorder: <node name>`` the plant publishes sample 0 only when that
-recorder (rotor_avc.nodes.recorder) subscribes to every topic of the run and the plant's own
-publishers have matched its subscriptions, so the bag holds every sample (topics are volatile:
-a message published before a subscriber matched is never delivered to it).
+recorder (rotor_avc.nodes.recorder) records every topic of the run -- it subscribes to them and
+the plant's own publishers have matched its subscriptions, or, composed into this process, it
+taps their publishers -- so the bag holds every sample (topics are volatile: a message published
+before a subscriber matched is never delivered to it). In lockstep the recording is then part of
+the handshake: the plant never runs more than ``recorder_window`` samples ahead of the messages
+the recorder reports as taken (``recorder/progress``), which is less than the publishers'
+history (messages.LOCKSTEP_DEPTH), so no message can be overwritten before the recorder has it;
+at the end the plant waits until the recorder has taken the last sample. A recorder that
+disappears, or takes nothing for ``recorder_timeout_s``, ends the run with exit status 1 and a
+message saying which sample the bag stops at.
+
+Real time: sample ``k`` is due at ``t_0 + k T`` on the wall clock (an absolute schedule: no
+drift however late single ticks are; a late sample is taken at once and the next ones catch up,
+none is skipped). After the first ``RATE_CHECK_S`` of the run the plant checks that it holds
+the rate (at most ``RATE_CHECK_OVERRUNS`` of the samples more than a period late); if not, it
+says so with the numbers and ends the run (exit status 3), or goes on with a warning under
+``realtime_overload: warn``. Lateness percentiles and overruns are on ``/diagnostics`` and in the
+final log line.
 
 The lockstep messages travel as serialised bytes (rotor_avc.nodes.messages: raw publishers and
 subscriptions, the same messages on the wire); a malformed answer is ignored and reported as a
@@ -41,9 +56,15 @@ from std_msgs.msg import Float64MultiArray
 
 from ..sim.loop import forces_from_answers, start, timeseries_from_run
 from . import messages as m
+from . import taps
 from .lockstep import POLICIES, AnswerBook
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
-from .timing import LoopTiming
+from .timing import LoopTiming, Schedule
+
+#: real time: the first RATE_CHECK_S of the run decide whether the graph holds the rate
+RATE_CHECK_S = 0.25
+RATE_CHECK_OVERRUNS = 0.05
+EXIT_RECORDER_LOST, EXIT_RATE_NOT_HELD = 1, 3
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config (path or shipped name): machine, controllers, "
@@ -67,6 +88,15 @@ PARAMS = COMMON_PARAMS + (
     Param("wait_for_recorder", "", "name of a recorder node that must subscribe to every topic "
           "of the run (the plant's, the controllers' forces, the balancer's) before sample 0, "
           "so the bag misses nothing; empty: do not wait"),
+    Param("recorder_window", 1000, "lockstep with wait_for_recorder: the most samples the plant "
+          "runs ahead of what the recorder has taken", minimum=1,
+          maximum=m.LOCKSTEP_DEPTH - m.RECORDER_MARGIN),
+    Param("recorder_timeout_s", 10.0, "lockstep with wait_for_recorder: wall time the plant waits "
+          "for a recorder that takes nothing before it ends the run (exit status 1)",
+          minimum=0.1, maximum=3600.0),
+    Param("realtime_overload", "abort", "real time: a rate the graph does not hold after the "
+          "first 0.25 s ends the run (abort, exit status 3) or is reported (warn)",
+          choices=("abort", "warn")),
 )
 
 
@@ -97,22 +127,24 @@ class PlantSimulator(Node):
         for act in plant.actuators:
             kinds = {"acceleration", self.feedback.get(act.id, "acceleration")}
             for kind in sorted(kinds):
-                self.meas.append((self.create_publisher(m.MEASUREMENT_TYPES[kind],
+                self.meas.append((taps.publisher(self, m.MEASUREMENT_TYPES[kind],
                                                         m.foot_topic(act.id, kind, ns),
                                                         m.LOCKSTEP_QOS),
                                   m.Measurement(kind, act.id, act.axis),
                                   lay.feedback_index(act.id, kind)))
         self.rotor = m.RotorBytes()           # joint_state, clock, observables: raw as self.meas
-        self.pub_joint = self.create_publisher(JointState, m.topic("rotor/joint_state", ns),
+        self.pub_joint = taps.publisher(self, JointState, m.topic("rotor/joint_state", ns),
                                                m.LOCKSTEP_QOS)
-        self.pub_clock = self.create_publisher(Clock, "/clock", m.LOCKSTEP_QOS)
+        self.pub_clock = taps.publisher(self, Clock, "/clock", m.LOCKSTEP_QOS)
         self.observables = m.LabelledBytes(lay.names)
-        self.pub_obs = self.create_publisher(Float64MultiArray, m.topic("plant/observables", ns),
+        self.pub_obs = taps.publisher(self, Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
-        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
         responders = self.driven + (("balancer",) if self.p["balancer"] else ())
         self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
                                self.p["resend_after_s"])
+        self.force_topics = {foot: m.foot_topic(foot, "actuator_force", ns) for foot in self.driven}
+        self.command_topic = m.topic("balancer/command", ns)
         for foot in self.driven:
             self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
                                      lambda data, f=foot: self._on_force(f, data), m.LOCKSTEP_QOS,
@@ -123,8 +155,23 @@ class PlantSimulator(Node):
         if self.p["balancer"]:
             self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
                                      self._on_balancer, m.LOCKSTEP_QOS, raw=True)
+        # the recorder handshake: what it has taken, against what the run has sent
+        self.progress_topic = m.topic(m.RECORDER_PROGRESS, ns)
+        self.recorder_taken: dict[str, int] = {}
+        self.received = {m.foot_topic(f, "actuator_force", ns): 0 for f in self.driven}
+        if self.p["balancer"]:
+            self.received[m.topic("balancer/command", ns)] = 0
+        self.allowance = self.p["recorder_window"]
+        self.stalled_since = None            # wall time the plant began waiting for the recorder
+        self.recorder_lagging = False        # lockstep: a sample is held back for the recorder
+        self.draining = False                # the run is complete; the recorder takes the rest
+        self.exit_status = 0
+        if self.p["wait_for_recorder"]:
+            self.create_subscription(Float64MultiArray, self.progress_topic, self._on_progress,
+                                     m.LOCKSTEP_QOS, raw=True)
         self.last_force_time = {foot: None for foot in self.driven}
         self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
+        self.schedule = Schedule(self.T)
         self.Y = np.empty((self.n_steps, len(lay.names)))
         self.U = np.empty((self.n_steps, self.stepper.n_inputs))
         self.C = (np.zeros((self.n_steps, len(plant.excitations)), complex)
@@ -141,7 +188,7 @@ class PlantSimulator(Node):
         self.create_timer(0.01, self._tick_waiting)
         self.create_timer(1.0, self._publish_diagnostics)
         if self.p["mode"] == "realtime":
-            self.create_timer(self.T, self._tick_realtime)
+            self.create_timer(min(self.T, 1e-3), self._tick_realtime)
 
     # -- start ----------------------------------------------------------------------------------
     def _connected(self) -> bool:
@@ -171,7 +218,11 @@ class PlantSimulator(Node):
         if self.p["balancer"]:
             others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
         missing = []
+        if self.count_publishers(self.progress_topic) < 1:
+            return ["(no recorder progress yet)"]
         for topic, pub in [(p.topic_name, p) for p in own] + [(t, None) for t in others]:
+            if taps.tapped(topic) and self.count_publishers(topic) == taps.local_publishers(topic):
+                continue                       # a recorder composed into this process has it
             infos = self.get_subscriptions_info_by_topic(topic)
             names = {i.node_name for i in infos} | {
                 i.node_namespace.rstrip("/") + "/" + i.node_name for i in infos}
@@ -187,9 +238,74 @@ class PlantSimulator(Node):
         self.correction = list(self.stepper.correction.values())
         self.started = True
         self.t_start = time.monotonic()
+        if self.p["mode"] == "realtime":
+            self.schedule.begin(time.perf_counter())
+            return                            # the real-time tick takes sample 0 when due
         self._publish_sample()
 
     # -- lockstep -------------------------------------------------------------------------------
+    # -- the recorder handshake (lockstep) -------------------------------------------------------
+    def _sent(self) -> dict[str, int]:
+        """Messages of the run per topic the recorder must take: what the plant published on
+        its lockstep topics and the answers it received."""
+        sent = {pub.topic_resolved: pub.count for pub, _, _ in self.meas}
+        for pub in (self.pub_joint, self.pub_clock, self.pub_obs):
+            sent[pub.topic_resolved] = pub.count
+        sent.update(self.received)
+        return sent
+
+    def _recorder_lag(self) -> int:
+        """Messages of the most lagging topic not yet taken by the recorder."""
+        taken = self.recorder_taken
+        return max(n - taken.get(topic, 0) for topic, n in self._sent().items())
+
+    def _on_progress(self, data: bytes) -> None:
+        try:
+            label, values = m.labelled_array(data)
+            names = label.split(",")
+            if len(names) != len(values) or names[:1] != ["time_s"]:
+                raise m.MessageError(f"labelled {label!r} with {len(values)} values")
+        except m.MessageError as exc:
+            self._fault(f"recorder progress ignored: {exc}")
+            return
+        self.recorder_taken = {n: int(v) for n, v in zip(names[1:], values[1:])}
+        lag = self._recorder_lag()
+        self.allowance = self.p["recorder_window"] - lag
+        if self.draining and lag <= 0:
+            self.draining = False
+            self._finish()
+        elif self.recorder_lagging and self.allowance > 0:
+            self.recorder_lagging = False
+            self.stalled_since = None
+            self._publish_sample()
+
+    def _recorder_holds_back(self) -> bool:
+        """Lockstep with a recorder: True (and the plant waits for its progress) when the next
+        sample would put the plant more than ``recorder_window`` samples ahead of it."""
+        if not self.p["wait_for_recorder"] or self.p["mode"] != "lockstep":
+            return False
+        if self.allowance > 0:
+            return False
+        self.recorder_lagging = True
+        self.stalled_since = time.monotonic()
+        return True
+
+    def _check_recorder(self, now: float) -> None:
+        """While waiting for the recorder: end the run when it is gone or takes nothing."""
+        gone = self.count_publishers(self.progress_topic) < 1
+        if gone or now - self.stalled_since > self.p["recorder_timeout_s"]:
+            sent, taken = self._sent(), self.recorder_taken
+            short = {t: n - taken.get(t, 0) for t, n in sent.items() if n > taken.get(t, 0)}
+            why = ("disappeared" if gone else
+                   f"took nothing for {self.p['recorder_timeout_s']:g} s")
+            self._fault(f"recorder {self.p['wait_for_recorder']!r} {why} at sample {self.k} of "
+                        f"{self.n_steps}: its bag lacks " + ", ".join(
+                            f"{n} message(s) of {t}" for t, n in sorted(short.items()))
+                        + "; ending the run (exit status 1)")
+            self.exit_status = EXIT_RECORDER_LOST
+            self.recorder_lagging = self.draining = False
+            self._finish(complete=False)
+
     def _publish_sample(self, begin: bool = True) -> None:
         """Publish sample k (again, with ``begin=False``: a resend of the same stamp). In
         lockstep this is the timed loop iteration; real time times its whole tick."""
@@ -217,6 +333,7 @@ class PlantSimulator(Node):
             self._fault(f"{foot}: actuator force ignored: {exc}")
             return
         self.last_force_time[foot] = time.monotonic()
+        self.received[self.force_topics[foot]] += 1
         if self.p["mode"] == "realtime":
             if not self.book.responders[foot].present:
                 self.book.responders[foot].present = True
@@ -239,6 +356,7 @@ class PlantSimulator(Node):
         except m.MessageError as exc:
             self._fault(f"balancer command ignored: {exc}")
             return
+        self.received[self.command_topic] += 1
         if (self.started and not self.finished
                 and self.book.receive("balancer", stamp, values[1:])):
             self._advance()
@@ -265,6 +383,8 @@ class PlantSimulator(Node):
         if self.k >= self.n_steps:
             self._finish()
             return
+        if self._recorder_holds_back():
+            return
         self._publish_sample()
 
     def _tick_waiting(self) -> None:
@@ -283,12 +403,19 @@ class PlantSimulator(Node):
                                 f"{self.p['discovery_timeout_s']:g} s: {missing}; starting with "
                                 "the fault policy for them")
                 if unrecorded:
-                    self._fault(f"recorder {self.p['wait_for_recorder']!r} did not subscribe "
-                                f"within {self.p['discovery_timeout_s']:g} s to {unrecorded}; "
-                                "starting without recording them")
+                    self._fault(f"recorder {self.p['wait_for_recorder']!r} does not record "
+                                f"{', '.join(unrecorded)} after {self.p['discovery_timeout_s']:g}"
+                                " s; not starting the run (exit status 1) -- fix: start the "
+                                "recorder first, with the same namespace and domain")
+                    self.exit_status = EXIT_RECORDER_LOST
+                    self._finish(complete=False)
+                    return
                 self._start()
             return
         if self.p["mode"] == "realtime":
+            return
+        if self.recorder_lagging or self.draining:
+            self._check_recorder(now)
             return
         resend, absent = self.book.poll(now)
         for name in absent:
@@ -297,24 +424,33 @@ class PlantSimulator(Node):
             self._publish_sample(begin=False)
         # with responders absent the plant no longer waits for them: advance a batch per tick
         for _ in range(64):
-            if self.finished or not self.book.ready():
+            if self.finished or self.recorder_lagging or self.draining or not self.book.ready():
                 break
             self._advance()
 
     # -- real time ------------------------------------------------------------------------------
     def _tick_realtime(self) -> None:
+        """Take every sample that is due (absolute schedule, see the module docstring)."""
         if not self.started or self.finished:
             return
-        now = time.monotonic()
+        now = time.perf_counter()
+        while not self.finished and self.schedule.due(self.k) <= now:
+            self._realtime_sample(now)
+            now = time.perf_counter()
+
+    def _realtime_sample(self, now: float) -> None:
+        """Sample k in real time: the latest forces held, measurements published, one step."""
+        wall = time.monotonic()
         for foot, t_last in self.last_force_time.items():
             r = self.book.responders[foot]
-            if r.present and (t_last is None and now - self.t_start > self.p["controller_timeout_s"]
-                              or t_last is not None and now - t_last > self.p["controller_timeout_s"]):
+            if r.present and (t_last is None and wall - self.t_start > self.p["controller_timeout_s"]
+                              or t_last is not None and wall - t_last > self.p["controller_timeout_s"]):
                 r.present = False
                 r.faults += 1
                 r.fault_reason = f"silent for more than {self.p['controller_timeout_s']:g} s"
                 self._fault(f"{foot}: {r.fault_reason}; policy: {self.book.policy}")
         u = forces_from_answers(self.stepper, {f: self._latest_force(f) for f in self.driven})
+        self.schedule.record(self.k, now)
         self.timing.start()
         self._publish_sample()
         self.Y[self.k] = self.y
@@ -324,6 +460,31 @@ class PlantSimulator(Node):
         self.timing.stop()
         if self.k >= self.n_steps:
             self._finish()
+        elif self.k == self.rate_check_samples:
+            self._check_rate()
+
+    @property
+    def rate_check_samples(self) -> int:
+        return max(1, min(self.n_steps - 1, int(round(RATE_CHECK_S / self.T))))
+
+    def _check_rate(self) -> None:
+        """Real time, after the first RATE_CHECK_S: does the graph hold the rate?"""
+        st = self.schedule.summary()
+        share = self.schedule.overruns / max(self.schedule.n, 1)
+        if share <= RATE_CHECK_OVERRUNS:
+            return
+        text = (f"real time at {1 / self.T:g} Hz is not held here: {100 * share:.0f} % of the "
+                f"first {self.schedule.n} samples came more than a period late (lateness p50 "
+                f"{1e6 * st['late_p50_s']:.0f} us, p99 {1e6 * st['late_p99_s']:.0f} us; tick "
+                f"{1e6 * self.timing.summary().get('exec_mean_s', 0.0):.0f} us of "
+                f"{1e6 * self.T:.0f} us) -- fix: a lower sample_rate_hz, a less loaded machine, "
+                "or lockstep mode")
+        if self.p["realtime_overload"] == "abort":
+            self._fault(text + "; ending the run (exit status 3)")
+            self.exit_status = EXIT_RATE_NOT_HELD
+            self._finish(complete=False)
+        else:
+            self._fault(text + "; going on (realtime_overload: warn)")
 
     def _latest_force(self, foot: str) -> float:
         """Real time: the latest force a present controller sent; the policy for an absent one."""
@@ -338,9 +499,33 @@ class PlantSimulator(Node):
         self.get_logger().warning(text)
         self._publish_diagnostics()
 
-    def _finish(self) -> None:
+    def _finish(self, complete: bool = True) -> None:
+        """End of the run; a complete lockstep run with a recorder first waits until the
+        recorder has taken every message of it (``draining``)."""
+        if (complete and self.p["wait_for_recorder"] and self.p["mode"] == "lockstep"
+                and not self.draining and self._recorder_lag() > 0):
+            self.draining = True
+            self.stalled_since = time.monotonic()
+            return
         self.finished = True
-        self.wall_s = time.monotonic() - self.t_start
+        self.wall_s = time.monotonic() - self.t_start if self.started else 0.0
+        sent = self._sent()
+        self.get_logger().info(
+            f"run {'complete' if complete else 'ENDED EARLY'}: {self.k} of {self.n_steps} samples "
+            f"in {self.wall_s:.2f} s ({self.k / max(self.wall_s, 1e-9):.0f} samples/s); published "
+            + ", ".join(f"{t} {n}" for t, n in sorted(sent.items())
+                        if t not in self.received)
+            + (f"; the recorder took every message" if self.p["wait_for_recorder"]
+               and complete and self.p["mode"] == "lockstep" else ""))
+        if self.p["mode"] == "realtime":
+            st = self.schedule.summary()
+            if st.get("samples"):
+                self.get_logger().info(
+                    f"real time {1 / self.T:g} Hz: mean period {1e6 * st.get('period_mean_s', 0):.3f} "
+                    f"us ({100 * st.get('period_error', 0):+.3f} %), lateness p50 "
+                    f"{1e6 * st['late_p50_s']:.0f} / p99 {1e6 * st['late_p99_s']:.0f} / max "
+                    f"{1e6 * st['late_max_s']:.0f} us, {st['overruns']} overruns "
+                    f"({st['overruns_per_10k']:.0f} per 10,000 samples)")
         self._publish_diagnostics()
         if self.p["result_path"]:
             self.result().save(self.p["result_path"])
@@ -359,20 +544,27 @@ class PlantSimulator(Node):
         stats = self.timing.summary()
         stats.update({"sample": self.k, "samples_total": self.n_steps,
                       "resends": self.book.resends})
+        if self.p["mode"] == "realtime":
+            stats.update({f"schedule_{k}": v for k, v in self.schedule.summary().items()})
         level, text = "ok", "running" if self.started else "waiting for controllers"
+        if self.recorder_lagging or self.draining:
+            text = f"waiting for recorder {self.p['wait_for_recorder']!r}"
         absent = self.book.absent()
         if absent:
             level = "error"
             text = "; ".join(f"{a}: {self.book.responders[a].fault_reason}" for a in absent)
         elif self.fault_log:
             level, text = "warn", self.fault_log[-1]
-        if self.finished and not absent:
+        if self.finished and self.exit_status:
+            level, text = "error", "run ended early: " + self.fault_log[-1]
+        elif self.finished and not absent:
             text = "run complete" + (f" ({len(self.fault_log)} faults)" if self.fault_log else "")
         per = [(f"{self.get_name()}: {name}", "error" if not r.present else "ok",
                 r.fault_reason or "answering", {"faults": r.faults})
                for name, r in self.book.responders.items()]
         self.pub_diag.publish(m.diagnostics(m.sample_ns(self.k, self.T),
-                                            [(f"{self.get_name()}: loop", level, text, stats)] + per))
+                                            [(f"{self.get_name()}: loop", level, text, stats)] + per
+            + [m.published_status(self)]))
 
 
 def main(args=None) -> int:

@@ -2,44 +2,58 @@
 
 Run: ``ros2 run rotor_avc recorder --ros-args -p scenario:=scenario_case3_steady -p
 path:=bags/case3.mcap`` and start the plant with ``-p wait_for_recorder:=recorder`` (the
-recorder's node name), so that sample 0 is published only once the recorder is subscribed to
-every topic of the run.
+recorder's node name).
 
 What it records: every topic of the machine's namespace, ``/clock`` and ``/diagnostics`` whose
 type the bag format knows (rotor_avc.bag.msgdefs; other topics are skipped with one warning
 each), as they appear (the topic list is polled every 50 ms). Messages are taken *raw*
-(serialised CDR, never decoded and re-encoded) and appended with
-:meth:`rotor_avc.bag.writer.BagWriter.write_raw`. Log time = the message's sim time, read from
-the bytes (rotor_avc.nodes.messages.raw_time_reader): the header stamp of stamped messages, the
-clock of ``/clock``, the ``time_s`` element of the labelled arrays (the latest sim time seen for
-a message without one). Each channel's ``offered_qos_profiles`` are the publishers' QoS as the
-graph reports them (DDS does not report history and depth: ``unknown``/0, as rosbag2 records
-them). The scenario's whole configuration (machine, controllers, discretisation, balancer, speed
-profile, unbalance, package version) goes into the bag's metadata, so the bag is
-self-describing.
+(serialised CDR, never decoded and re-encoded): a subscription's callback only appends the bytes
+to its topic's queue, and every ``flush_period_s`` the queues go to the bag
+(:meth:`rotor_avc.bag.writer.BagWriter.write_raw`) at the message's sim time, read from the
+bytes (rotor_avc.nodes.messages.raw_time_reader; the latest sim time seen for a message without
+one). Each channel's ``offered_qos_profiles`` are the publishers' QoS as the graph reports them.
+The scenario's whole configuration goes into the bag's metadata, so the bag is self-describing.
 
-Nothing is lost: the subscriptions are reliable with KEEP_ALL history, so a burst the recorder
-has not taken yet waits in its queue instead of being overwritten; with the plant waiting for the
-recorder (above) every published message is in the bag (tested per topic under a 5 kHz lockstep
-run, in one executor and as a separate process). The recorder must keep up on average: it takes
-about 25,000 messages/s here; a lockstep run of three feet publishes nine messages per sample
-(20,000 samples at ~2,800 samples/s recorded by a recorder process without a loss). A recorder
-that falls far behind lets DDS drop messages its reader has not acknowledged (the publishers keep
-the last 200 per topic).
+Two sources (parameter ``source``):
 
-Ending: SIGINT/SIGTERM finish the file (last chunk, summary, indexes, rosbag2 metadata) and exit
-with status 0. After a SIGKILL (or a power cut) the file has no summary and at most the chunk
-being filled is lost (``chunk_size_bytes`` of messages; every full chunk is flushed at once):
+* ``dds`` (default): reliable KEEP_ALL subscriptions, transient-local where every publisher of
+  the topic offers it (the lockstep topics do), the recorder in its own process or any;
+* ``process``: the recorder is composed into one process with the nodes it records
+  (rotor_avc.nodes.graph, ``composed``) and takes their messages from the in-process taps
+  (rotor_avc.nodes.taps) as they are published -- lossless and about ten times cheaper than a
+  DDS delivery per message. Messages of nodes in other processes are not recorded in this mode
+  (a warning names such topics).
+
+**Nothing is lost silently.** After every flush that took messages (and every
+0.1 s) the recorder publishes on ``<ns>/recorder/progress`` how many messages it has taken per
+topic (a labelled array: ``time_s``
+then one count per topic, labelled with the topic names). A lockstep plant started with
+``wait_for_recorder`` never runs more than its ``recorder_window`` samples ahead of these counts,
+and the lockstep publishers keep a deeper history (rotor_avc.nodes.messages.LOCKSTEP_DEPTH), so
+no DDS history on the way can overwrite a message before the recorder has taken it. Where
+nothing waits (real time), messages DDS reports as lost to a subscription are counted per topic;
+and from the publishers' side every node of the package reports what it published per topic on
+``/diagnostics``, which the recorder reads. Lost messages (reported by DDS, or published but not
+recorded) are said on ``/diagnostics``, in the log and in the bag: the ``rotor_avc_counts``
+record holds per topic the messages published, recorded and lost.
+
+Ending: SIGINT/SIGTERM take what is still queued, finish the file (last chunk, counts, summary,
+indexes, rosbag2 metadata) and exit with status 0. After a SIGKILL (or a power cut) the file has
+no summary and at most the messages of the last ``flush_period_s`` and the chunk being filled
+are lost (``chunk_size_bytes`` of messages; every full chunk is flushed at once):
 ``rotor_avc.bag.recover_bag(path)`` (or ``mcap recover``) writes ``<name>.recovered.mcap`` with
-everything before it. Per-topic counts of recorded messages are published on ``/diagnostics``
-(one KeyValue per topic) and kept in :attr:`Recorder.counts`.
+everything before it.
 """
 from __future__ import annotations
 
 import importlib
+import time
 
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from std_msgs.msg import Float64MultiArray
 
 from ..bag.errors import BagError
 from ..bag.metadata import qos_profiles
@@ -47,20 +61,45 @@ from ..bag.msgdefs import DEFINITIONS
 from ..bag.writer import BagWriter
 from ..errors import RotorAvcError
 from . import messages as m
+from . import taps
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config of the run (stored in the bag's metadata)"),
     Param("path", "", "the .mcap file to write (must not exist)"),
     Param("namespace", m.NAMESPACE, "topic namespace of the machine"),
+    Param("source", "dds", "dds: subscribe to every topic; process: take the messages of the "
+          "nodes composed into this process from their publishers", choices=("dds", "process")),
     Param("compression", "zstd", "chunk compression", choices=("zstd", "lz4", "none")),
     Param("chunk_size_bytes", 1 << 20, "uncompressed chunk size; a SIGKILL loses at most one",
           minimum=4096, maximum=1 << 28),
+    Param("flush_period_s", 0.01, "how often the queued messages go to the bag and the progress "
+          "is published", minimum=1e-3, maximum=1.0),
 )
-#: reliable and KEEP_ALL: messages not taken yet queue up instead of being overwritten
+#: reliable and KEEP_ALL: messages not taken yet queue up instead of being overwritten; the
+#: transient-local variant for topics whose every publisher offers it (the lockstep topics), so
+#: nothing published before the subscription matched is missed
 RECORD_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_ALL,
                         reliability=ReliabilityPolicy.RELIABLE)
+RECORD_QOS_LATE_JOINER = QoSProfile(depth=1, history=HistoryPolicy.KEEP_ALL,
+                                    reliability=ReliabilityPolicy.RELIABLE,
+                                    durability=DurabilityPolicy.TRANSIENT_LOCAL)
+PROGRESS_EVERY_S = 0.1
 DISCOVERY_PERIOD_S = 0.05
+#: at the end: take what is queued until nothing came for this long (at most DRAIN_MAX_S)
+DRAIN_QUIET_S, DRAIN_MAX_S = 0.1, 3.0
+
+
+class _Channel:
+    """One recorded topic: the queue its source appends to, and its counts."""
+
+    def __init__(self, name: str, msg_type: str):
+        self.name, self.msg_type = name, msg_type
+        self.queue: list[bytes] = []
+        self.time_of = m.raw_time_reader(msg_type)
+        self.recorded = 0
+        self.lost = 0                 # reported lost by DDS
+        self.published_remote = {}    # node -> count, from the nodes' /diagnostics
 
 
 class Recorder(Node):
@@ -79,35 +118,90 @@ class Recorder(Node):
         self.writer = BagWriter(self.p["path"], config, compression=compression,
                                 chunk_size=self.p["chunk_size_bytes"])
         self.prefix = m.topic("", self.p["namespace"]).rstrip("/") + "/"
-        self.counts: dict[str, int] = {}
+        self.progress_topic = m.topic(m.RECORDER_PROGRESS, self.p["namespace"])
+        self.channels: dict[str, _Channel] = {}
         self.last_time_ns = 0
         self._subs = {}
         self._skipped: set[str] = set()
+        self._warned_remote: set[str] = set()
+        self._last_progress, self._progress_at = None, 0.0
         self.exit_requested = False
-        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_progress = taps.publisher(self, Float64MultiArray, self.progress_topic,
+                                           m.LOCKSTEP_QOS)
+        self._unwatch = None
+        if self.p["source"] == "process":
+            self._unwatch = taps.watch_publishers(self._tap_publisher)
         self.create_timer(DISCOVERY_PERIOD_S, self._discover)
+        self.create_timer(self.p["flush_period_s"], self.flush)
         self.create_timer(1.0, self._publish_diagnostics)
         self._discover()
 
+    @property
+    def counts(self) -> dict[str, int]:
+        """Messages taken per topic (written to the bag or queued for it)."""
+        return {name: ch.recorded + len(ch.queue) for name, ch in self.channels.items()}
+
     # -- topics ---------------------------------------------------------------------------------
+    def _recordable(self, name: str) -> bool:
+        return ((name.startswith(self.prefix) or name in ("/clock", "/diagnostics"))
+                and name != self.progress_topic and name not in self._skipped)
+
+    def _channel(self, name: str, types) -> _Channel | None:
+        """The channel of topic ``name`` (registered in the bag on first sight), or None when
+        its type is not one the bag format knows."""
+        ch = self.channels.get(name)
+        if ch is not None:
+            return ch
+        msg_type = next((t for t in types if t in DEFINITIONS), None)
+        if msg_type is None:
+            self._skipped.add(name)
+            self.get_logger().warning(f"not recording {name}: type {', '.join(types)} is "
+                                      "not one the bag format knows (rotor_avc.bag.msgdefs)")
+            return None
+        self.writer.add_topic(name, msg_type, self._offered_qos(name))
+        ch = self.channels[name] = _Channel(name, msg_type)
+        return ch
+
     def _discover(self) -> None:
         for name, types in self.get_topic_names_and_types():
-            if name in self._subs or name in self._skipped:
+            if not self._recordable(name):
                 continue
-            if not (name.startswith(self.prefix) or name in ("/clock", "/diagnostics")):
+            if self.p["source"] == "process":
+                if (name not in self._warned_remote
+                        and self.count_publishers(name) > taps.local_publishers(name)):
+                    self._warned_remote.add(name)
+                    self.get_logger().warning(f"{name} has publishers in other processes: "
+                                              "source 'process' does not record their messages")
                 continue
-            msg_type = next((t for t in types if t in DEFINITIONS), None)
-            if msg_type is None:
-                self._skipped.add(name)
-                self.get_logger().warning(f"not recording {name}: type {', '.join(types)} is "
-                                          "not one the bag format knows (rotor_avc.bag.msgdefs)")
+            if name in self._subs:
                 continue
-            pkg, _, cls_name = msg_type.split("/")
+            ch = self._channel(name, types)
+            if ch is None:
+                continue
+            pkg, _, cls_name = ch.msg_type.split("/")
             cls = getattr(importlib.import_module(f"{pkg}.msg"), cls_name)
-            self.writer.add_topic(name, msg_type, self._offered_qos(name))
-            self.counts[name] = 0
-            self._subs[name] = self.create_subscription(cls, name, self._callback(name, msg_type),
-                                                        RECORD_QOS, raw=True)
+            events = SubscriptionEventCallbacks(message_lost=lambda info, c=ch: self._lost(c, info))
+            infos = self.get_publishers_info_by_topic(name)
+            late = infos and all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                                 for i in infos)
+            self._subs[name] = self.create_subscription(
+                cls, name, ch.queue.append, RECORD_QOS_LATE_JOINER if late else RECORD_QOS,
+                raw=True, event_callbacks=events)
+
+    def _tap_publisher(self, pub) -> None:
+        """source 'process': record a publisher of this process (existing or new)."""
+        name = pub.topic_resolved
+        if not self._recordable(name) or name in self.channels:
+            return
+        ch = self._channel(name, [pub.type_name])
+        if ch is not None:
+            taps.add_tap(name, ch.queue.append)
+
+    def _lost(self, ch: _Channel, info) -> None:
+        ch.lost += info.total_count_change
+        self.get_logger().error(f"{ch.name}: DDS lost {info.total_count_change} message(s) "
+                                f"before the recorder took them ({ch.lost} in all)")
 
     def _offered_qos(self, name: str) -> list[dict] | None:
         """The QoS of the topic's publishers in the bag's form (None: the default profile)."""
@@ -128,32 +222,116 @@ class Recorder(Node):
                                       "recording the default profile")
             return None
 
-    def _callback(self, name: str, msg_type: str):
-        """The raw subscription callback of one topic (kept small: it runs per message)."""
-        time_of = m.raw_time_reader(msg_type)
+    # -- the bag --------------------------------------------------------------------------------
+    def flush(self) -> None:
+        """Write the queued messages to the bag and publish the progress."""
         write = self.writer.write_raw
-        counts = self.counts
+        for ch in self.channels.values():
+            n = len(ch.queue)
+            if not n:
+                continue
+            batch = ch.queue[:n]
+            del ch.queue[:n]             # sources only append: nothing taken meanwhile is lost
+            time_of, last = ch.time_of, self.last_time_ns
+            for data in batch:
+                t = time_of(data)
+                if t is None:
+                    t = last
+                elif t > last:
+                    last = t
+                write(ch.name, data, t)
+            self.last_time_ns = last
+            ch.recorded += n
+            if ch.name == "/diagnostics":
+                self._read_published(batch)
+        counts = [float(ch.recorded) for ch in self.channels.values()]
+        now = time.monotonic()
+        if counts != self._last_progress or now - self._progress_at >= PROGRESS_EVERY_S:
+            self._last_progress, self._progress_at = counts, now
+            labels = ["time_s"] + list(self.channels)
+            self.pub_progress.publish(m.Labelled(labels).fill([self.last_time_ns * 1e-9] + counts))
 
-        def on_raw(data: bytes) -> None:
-            time_ns = time_of(data)
-            if time_ns is None:
-                time_ns = self.last_time_ns
-            elif time_ns > self.last_time_ns:
-                self.last_time_ns = time_ns
-            write(name, data, time_ns)
-            counts[name] += 1
+    def _read_published(self, batch: list[bytes]) -> None:
+        """The publishers' counts from the nodes' /diagnostics (rotor_avc.nodes.messages
+        .published_status)."""
+        for data in batch:
+            try:
+                msg = deserialize_message(data, m.DiagnosticArray)
+            except Exception:            # not ours to judge: it is recorded as it came
+                continue
+            for st in msg.status:
+                if not st.name.endswith(m.PUBLISHED_SUFFIX):
+                    continue
+                node = st.name[:-len(m.PUBLISHED_SUFFIX)]
+                for kv in st.values:
+                    ch = self.channels.get(kv.key)
+                    if ch is not None and kv.value.isdigit():
+                        ch.published_remote[node] = max(int(kv.value),
+                                                        ch.published_remote.get(node, 0))
 
-        return on_raw
+    def published(self) -> dict[str, int | None]:
+        """Messages published per topic, from the publishers' side: the counted publishers of
+        this process where the topic has any, else the counts its nodes reported; None when
+        no publisher reported."""
+        local: dict[str, int] = {}
+        for pub in taps.publishers():
+            if pub.topic_resolved in self.channels:
+                local[pub.topic_resolved] = local.get(pub.topic_resolved, 0) + pub.count
+        out = {}
+        for name, ch in self.channels.items():
+            if name in local:
+                out[name] = local[name]
+            else:
+                out[name] = sum(ch.published_remote.values()) if ch.published_remote else None
+        return out
+
+    def losses(self) -> dict[str, int]:
+        """Messages lost per topic: reported by DDS, or published but not recorded."""
+        published = self.published()
+        out = {}
+        for name, ch in self.channels.items():
+            taken = ch.recorded + len(ch.queue)
+            missing = 0 if published[name] is None else max(0, published[name] - taken)
+            if max(ch.lost, missing):
+                out[name] = max(ch.lost, missing)
+        return out
 
     # -- status, end ----------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
-        values = dict(sorted(self.counts.items()))
+        lost = self.losses()
+        values = {f"{name} recorded": n for name, n in sorted(self.counts.items())}
+        values.update({f"{name} lost": n for name, n in sorted(lost.items())})
+        level, text = (("error", f"lost messages on {', '.join(sorted(lost))}") if lost
+                       else ("ok", self.p["path"]))
         self.pub_diag.publish(m.diagnostics(self.last_time_ns, [
-            (f"{self.get_name()}: recording", "ok", self.p["path"], values)]))
+            (f"{self.get_name()}: recording", level, text, values), m.published_status(self)]))
+
+    def drain(self, executor) -> None:
+        """Take what is still queued for the subscriptions (before the executor stops)."""
+        t_end = time.monotonic() + DRAIN_MAX_S
+        quiet_since = time.monotonic()
+        last = sum(self.counts.values())
+        while time.monotonic() < t_end and time.monotonic() - quiet_since < DRAIN_QUIET_S:
+            executor.spin_once(timeout_sec=0.02)
+            now = sum(self.counts.values())
+            if now != last:
+                last, quiet_since = now, time.monotonic()
 
     def close(self) -> None:
-        """Finish the bag (also on SIGINT/SIGTERM, via run_node)."""
-        self.writer.close()
+        """Finish the bag (also on SIGINT/SIGTERM, via run_node) with its message counts."""
+        if self._unwatch is not None:
+            self._unwatch()
+        self.flush()
+        published, lost = self.published(), self.losses()
+        log = self.get_logger()
+        for name, ch in sorted(self.channels.items()):
+            pub = "?" if published[name] is None else published[name]
+            text = f"{name}: recorded {ch.recorded} of {pub} published"
+            if name in lost:
+                log.error(f"{text}; LOST {lost[name]}")
+            else:
+                log.info(text)
+        self.writer.close(published, lost)
 
 
 def _duration(d) -> dict:

@@ -52,6 +52,7 @@ from rclpy.signals import SignalHandlerOptions
 from ..bag.reader import BagReader, _numeric_leaves
 from ..errors import RotorAvcError
 from . import messages as m
+from . import taps
 from .runtime import make_executor
 
 _NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
@@ -183,7 +184,7 @@ class Replayer(Node):
                  **kwargs):
         super().__init__(name, **kwargs)
         self.reader, self.plan = reader, plan
-        self.pubs = {t: self.create_publisher(plan.classes[t], out, m.LOCKSTEP_QOS)
+        self.pubs = {t: taps.publisher(self, plan.classes[t], out, m.LOCKSTEP_QOS)
                      for t, out in plan.topics.items()}
         self.stamp_of = {t: m.raw_time_reader(reader.topics[t].msg_type) for t in plan.topics}
         self.live: dict[str, Answer] = {}

@@ -10,12 +10,12 @@ node. SIGINT and SIGTERM shut a node down cleanly (exit status 0).
 from __future__ import annotations
 
 import math
-import signal
 import sys
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import rclpy
+from rclpy.duration import Duration
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
@@ -23,8 +23,10 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
 from ..sim.scenario import load_scenario
+from . import signals
 
 EXECUTORS = ("events", "single_threaded", "multi_threaded")
+FINAL_DIAGNOSTICS_WAIT_S = 0.5
 
 
 class ParameterError(RotorAvcError):
@@ -117,32 +119,18 @@ def make_executor(kind: str, context=None):
     return SingleThreadedExecutor(context=context)
 
 
-class _Stop(BaseException):
-    """Raised by a second SIGINT/SIGTERM: unwinds to run_node's clean shutdown at once."""
-
-
-_STOP = {"requested": False}
-
-
-def _on_signal(signum, frame):
-    """The first SIGINT/SIGTERM only asks the spin loop to stop (never interrupting a callback
-    or a file write); a second one stops at once."""
-    if _STOP["requested"]:
-        raise _Stop(signum)
-    _STOP["requested"] = True
-
-
 def run_node(factory: Callable[[], Node], args=None) -> int:
     """``main()`` of a node: init, build, spin with the node's executor, shut down cleanly.
 
     A :class:`RotorAvcError` while building (bad parameter or config) is printed as one line and
-    exits with status 2; SIGINT/SIGTERM -- at any time, also while the node is still being
-    built -- end the run after the current callback through the same clean shutdown (files
-    closed) with status 0."""
+    exits with status 2; SIGINT/SIGTERM -- at any time, also during the imports and while the
+    node is still being built (rotor_avc.nodes.signals) -- end the run after the current
+    callback through the same clean shutdown (files closed) with status 0. A node that ends its
+    run on its own sets ``exit_requested`` and, when the run failed, ``exit_status`` (non-zero,
+    said in its log). Before the executor is shut down, a node's ``drain(executor)`` (if it has
+    one) takes what is still queued for it."""
+    signals.running()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    _STOP["requested"] = False
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _on_signal)
     node = None
     status = 0
     try:
@@ -150,18 +138,24 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         executor = make_executor(getattr(node, "executor_kind", "events"))
         executor.add_node(node)
         try:
-            while (rclpy.ok() and not _STOP["requested"]
+            while (rclpy.ok() and not signals.stop_requested()
                    and not getattr(node, "exit_requested", False)):
                 executor.spin_once(timeout_sec=0.1)
+            drain = getattr(node, "drain", None)
+            if drain is not None and rclpy.ok():
+                drain(executor)
         finally:
             executor.shutdown()
+        status = getattr(node, "exit_status", 0)
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
         status = 2
-    except (_Stop, KeyboardInterrupt, ExternalShutdownException):
+    except (signals.Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         if node is not None:
+            if rclpy.ok():
+                _final_diagnostics(node)
             close = getattr(node, "close", None)
             if close is not None:
                 close()
@@ -169,3 +163,13 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         if rclpy.ok():
             rclpy.shutdown()
     return status
+
+
+def _final_diagnostics(node: Node) -> None:
+    """A node's last ``/diagnostics`` (its final published counts, which a recorder puts in the
+    bag), waited for until the subscribers have it (at most FINAL_DIAGNOSTICS_WAIT_S)."""
+    publish, pub = getattr(node, "_publish_diagnostics", None), getattr(node, "pub_diag", None)
+    if publish is None or pub is None:
+        return
+    publish()
+    pub.wait_for_all_acked(Duration(seconds=FINAL_DIAGNOSTICS_WAIT_S))

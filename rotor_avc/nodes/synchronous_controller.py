@@ -21,6 +21,7 @@ from sensor_msgs.msg import JointState
 
 from ..errors import RotorAvcError
 from . import messages as m
+from . import taps
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
 
@@ -48,11 +49,11 @@ class SynchronousController(Node):
         self.outputs = []
         for act_id in self.generator.actuator_ids:
             force = m.Force(act_id, plant.actuator(act_id).axis)
-            self.outputs.append((self.create_publisher(m.STAMPED_TYPES["actuator_force"], m.foot_topic(
+            self.outputs.append((taps.publisher(self, m.STAMPED_TYPES["actuator_force"], m.foot_topic(
                 act_id, "actuator_force", ns), m.LOCKSTEP_QOS), force))
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
                                  m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = self.create_publisher(type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.last_stamp = -1
@@ -91,7 +92,7 @@ class SynchronousController(Node):
         stats.update({"faults": self.faults, "in_table": self.generator.in_range})
         level, text = ("warn", self.last_fault) if self.last_fault else ("ok", "1x feed-forward")
         self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0), [
-            (f"{self.get_name()}: feed-forward", level, text, stats)]))
+            (f"{self.get_name()}: feed-forward", level, text, stats), m.published_status(self)]))
 
 
 def main(args=None) -> int:

@@ -3,7 +3,8 @@
 Per window: the period between loop iterations (mean, standard deviation), the execution time of
 an iteration (mean, 99th percentile, maximum) and the overruns (iterations whose period exceeded
 the nominal period by more than ``overrun_tolerance``). Samples are kept in fixed-size ring
-buffers, so the cost per iteration is two float stores.
+buffers, so the cost per iteration is two float stores. :class:`Schedule` is the real-time
+plant's absolute schedule and its lateness statistics.
 """
 from __future__ import annotations
 
@@ -60,4 +61,59 @@ class LoopTiming:
             out["period_std_s"] = float(per.std())
         if self.nominal:
             out["period_nominal_s"] = self.nominal
+        return out
+
+
+class Schedule:
+    """An absolute sampling schedule: sample ``k`` is due at ``t0 + k T`` (wall clock), so no
+    error accumulates however late single ticks are -- a late sample is taken at once (the
+    samples after it catch up), never skipped and never shifting the later ones.
+
+    Per sample it records the lateness (time taken - time due); an *overrun* is a sample taken
+    more than one period late. :meth:`summary` gives the lateness percentiles, the overruns
+    per 10,000 samples and the mean period between the first and the last sample taken."""
+
+    def __init__(self, period_s: float, window: int = 100_000):
+        self.period = period_s
+        self._late = np.zeros(window)
+        self.n = 0
+        self.overruns = 0
+        self.t0 = None
+        self.first = self.last = None
+
+    def begin(self, now: float) -> None:
+        self.t0 = now
+
+    def due(self, k: int) -> float:
+        return self.t0 + k * self.period
+
+    def record(self, k: int, now: float) -> None:
+        late = now - self.due(k)
+        self._late[self.n % self._late.size] = late
+        self.n += 1
+        if late > self.period:
+            self.overruns += 1
+        if self.first is None:
+            self.first = (k, now)
+        self.last = (k, now)
+
+    def mean_period(self) -> float | None:
+        if self.first is None or self.last[0] == self.first[0]:
+            return None
+        return (self.last[1] - self.first[1]) / (self.last[0] - self.first[0])
+
+    def summary(self) -> dict[str, float]:
+        m = min(self.n, self._late.size)
+        if m == 0:
+            return {"samples": 0}
+        late = self._late[:m]
+        p50, p99 = np.percentile(late, [50, 99])
+        out = {"samples": self.n, "late_p50_s": float(p50), "late_p99_s": float(p99),
+               "late_max_s": float(late.max()), "overruns": self.overruns,
+               "overruns_per_10k": 1e4 * self.overruns / self.n,
+               "period_nominal_s": self.period}
+        mean = self.mean_period()
+        if mean is not None:
+            out["period_mean_s"] = mean
+            out["period_error"] = mean / self.period - 1.0
         return out

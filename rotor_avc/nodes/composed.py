@@ -1,0 +1,103 @@
+"""A whole graph in one process: recorder, controllers, balancer and plant in one executor.
+
+``python -m rotor_avc.nodes.composed --ros-args -p scenario:=scenario_demo_case3 -p
+path:=bags/run.mcap`` builds the nodes of the scenario the way rotor_avc.nodes.graph starts them
+as processes, with the same parameters, composed like the nodes of a ROS 2 component container:
+the recorder first, taking every message from the nodes' publishers (``source: process``), then
+the feedback controllers, the feed-forward node and the balancer when the scenario has them, and
+the plant in lockstep with ``wait_for_recorder``. The nodes talk through DDS as in separate
+processes (any other node of the domain sees the same traffic); the run just needs no round trip
+between processes. Ends when the plant's run ends, with the plant's exit status; SIGINT/SIGTERM
+at any time end it cleanly, the bag finished.
+"""
+from __future__ import annotations
+
+import sys
+
+import rclpy
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
+
+from ..errors import RotorAvcError
+from ..sim.scenario import load_scenario
+from . import signals
+from .runtime import make_executor
+
+def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events") -> list:
+    """The scenario's nodes, recorder first and plant last, for one executor, appended to
+    ``nodes`` as they are built (so a failure half-way leaves the built ones to be closed)."""
+    from .balancer import Balancer
+    from .foot_controller import FootController
+    from .plant_simulator import PlantSimulator
+    from .recorder import Recorder
+    from .synchronous_controller import SynchronousController
+
+    def params(**values):
+        return [Parameter(k, value=v) for k, v in values.items()]
+    scenario = load_scenario(scenario_name)
+    nodes.append(Recorder("recorder", parameter_overrides=params(
+        scenario=scenario_name, path=bag_path, source="process", executor=executor)))
+    for foot in scenario.machine.controllers:
+        nodes.append(FootController(f"foot_controller_{foot}", parameter_overrides=params(
+            scenario=scenario_name, foot_id=foot, executor=executor)))
+    if scenario.feedforward_actuators():
+        nodes.append(SynchronousController("synchronous_controller", parameter_overrides=params(
+            scenario=scenario_name, executor=executor)))
+    if scenario.use_balancer:
+        nodes.append(Balancer("balancer", parameter_overrides=params(
+            scenario=scenario_name, executor=executor)))
+    nodes.append(PlantSimulator("plant_simulator", parameter_overrides=params(
+        scenario=scenario_name, wait_for_recorder="recorder", balancer=scenario.use_balancer,
+        executor=executor)))
+    return nodes
+
+
+def _ros_param(args: list[str], name: str) -> str:
+    """The value of ``-p name:=value`` among ``--ros-args``."""
+    for a, b in zip(args, args[1:]):
+        if a == "-p" and b.startswith(f"{name}:="):
+            return b.split(":=", 1)[1]
+    raise RotorAvcError(f"composed: parameter '{name}' is missing -- fix: -p {name}:=...")
+
+
+def main(args=None) -> int:
+    signals.running()
+    argv = list(sys.argv[1:] if args is None else args)
+    try:
+        scenario_name, bag = _ros_param(argv, "scenario"), _ros_param(argv, "path")
+    except RotorAvcError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    nodes, status = [], 0
+    try:
+        build_nodes(scenario_name, bag, nodes)
+        plant, recorder = nodes[-1], nodes[0]
+        executor = make_executor("events")
+        for node in nodes:
+            executor.add_node(node)
+        try:
+            while rclpy.ok() and not signals.stop_requested() and not plant.exit_requested:
+                executor.spin_once(timeout_sec=0.1)
+            recorder.drain(executor)
+        finally:
+            executor.shutdown()
+        status = plant.exit_status
+    except RotorAvcError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        status = 2
+    except (signals.Stop, KeyboardInterrupt):
+        pass
+    finally:
+        for node in reversed(nodes):              # the plant first, the recorder last
+            close = getattr(node, "close", None)
+            if close is not None:
+                close()
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return status
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
