@@ -1,31 +1,35 @@
-"""Benchmark: the ROS lockstep closed loop in steps per second against a bare rclpy ping-pong.
+"""Benchmark: the ROS lockstep graph with and without the recorder, and real-time mode.
 
-Every figure is measured in this run, in one process, each executor in turn (events,
-single_threaded):
+Every figure is measured in this run (the machine may be shared: each lockstep figure is the
+best of ``--repeats`` runs, the graphs measured in turn so that load hits them alike):
 
-* **ping-pong** -- two nodes, publish -> callback -> publish back, round trips per second (the
-  baseline: the most a lockstep step could cost is one round trip);
-* **case 3*** -- plant_simulator + 4 foot_controller nodes (seed 000, four I-controllers, 5 kHz,
-  lockstep): plant steps per second and the ratio to the ping-pong (goal >= 25 %: real time at
-  5 kHz needs 5000 steps/s);
-* **case 3* + balancer** -- the same with the one-plane balancer (config/balancer_foot_mount.yaml)
-  answering every sample too.
+**Lockstep** -- seed 000, case 3 (plant + 3 foot controllers), 5 kHz, constant 20 Hz:
 
-Run: ``python bench/bench_ros_loop.py [--steps 3000] [--repeats 3] [--profile]``; each figure
-is the best of ``--repeats`` runs (the machine is shared); ``--profile`` prints the hottest
-functions of one events-executor loop of each graph (cProfile).
+* **ping-pong** -- two nodes in one process, publish -> callback -> publish back (typed
+  messages), round trips per second, and the same between two processes (raw bytes): the most a
+  lockstep sample could cost is one round trip;
+* **loop** -- plant + 3 controllers in one process and executor (rotor_avc.nodes.composed
+  without the recorder): samples per second;
+* **loop + recorder** -- the same with the recorder composed in (``source: process``: it takes
+  the messages from the nodes' publishers) and the plant in the recorder handshake
+  (``wait_for_recorder``); the goal is >= 5000 samples/s (real time at 5 kHz) and >= 75 % of the
+  loop (the recorder costs at most 25 %);
+* **loop + recorder + balancer** -- with the one-plane balancer (config/balancer_foot_mount.yaml)
+  answering every sample too;
+* **loop + DDS recorder** -- the recorder subscribed through DDS in the same process (each
+  message one more DDS delivery and executor callback: why the composed graph taps instead);
+* **processes + recorder** -- each node its own process (rotor_avc.nodes.graph, the ``ros2 run``
+  layout): bounded by the cross-process round trip above.
 
-Every lockstep message travels as serialised bytes (rotor_avc.nodes.messages: StampedVector,
-RotorBytes, LabelledBytes and their decoders, raw subscriptions): with typed messages case 3*
-ran at 18 % of the ping-pong (events) and, with the balancer's typed joint state and labelled
-arrays, 14 % -- rclpy's conversion of Python messages, not the nodes' arithmetic (a plant step
-is ~20 us), was the cost. A step of case 3* + balancer is 11 callbacks (4 measurements, 4
-forces, joint state and observables, command) against 2 per ping-pong round trip, so at equal
-cost per callback it would run at 2/11 = 18 % of the ping-pong; the events executor runs above
-that bound (raw callbacks are cheaper than the typed ping-pong's), the single-threaded one, whose
-own per-callback cost dominates, near it (20-25 % measured). The baseline stays the typed
-ping-pong (a raw-bytes ping-pong runs ~3.5x faster). ROS traffic stays in this process's private
-domain on loopback.
+**Real time** -- ``mode: realtime`` at 1, 2 and 5 kHz, composed graph with the recorder, 2 s per
+rate: the mean period against the nominal one (absolute schedule: no drift), the lateness of
+the samples (p50/p99/max), overruns (samples more than a period late) per 10,000 samples, the
+messages lost per topic (published - recorded, from the bag), and whether the plant's rate
+check refused the rate.
+
+Run: ``python bench/bench_ros_loop.py [--steps 10000] [--repeats 3] [--profile]``
+(``--profile``: the hottest functions of one loop + recorder run, cProfile). ROS traffic stays in
+this process's private domain on loopback.
 """
 import os
 
@@ -37,6 +41,9 @@ import argparse  # noqa: E402
 import cProfile  # noqa: E402
 import io  # noqa: E402
 import pstats  # noqa: E402
+import re  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -45,28 +52,31 @@ import rclpy  # noqa: E402
 from geometry_msgs.msg import AccelStamped, WrenchStamped  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 
+from rotor_avc.bag import BagReader  # noqa: E402
 from rotor_avc.config import find_config  # noqa: E402
 from rotor_avc.nodes import messages as m  # noqa: E402
-from rotor_avc.nodes.balancer import Balancer  # noqa: E402
+from rotor_avc.nodes.composed import build_nodes  # noqa: E402
 from rotor_avc.nodes.foot_controller import FootController  # noqa: E402
+from rotor_avc.nodes.graph import run_graph  # noqa: E402
 from rotor_avc.nodes.plant_simulator import PlantSimulator  # noqa: E402
+from rotor_avc.nodes.recorder import Recorder  # noqa: E402
 from rotor_avc.nodes.runtime import make_executor  # noqa: E402
 
-FEET = ("DL", "DR", "NL", "NR")
-EXECUTORS = ("events", "single_threaded")
+FEET = ("DL", "DR", "NL")
+REALTIME_HZ = (1000.0, 2000.0, 5000.0)
 
 
-def scenario(folder: Path, steps: int, balancer: bool) -> str:
-    """Case 3* at a constant 20 Hz, 5 kHz, ``steps`` samples (+ the balancer of
-    balancer_foot_mount.yaml)."""
-    includes = [str(find_config("foot_mount_case3_4act"))]
+def scenario(folder: Path, steps: int, balancer: bool = False, rate_hz: float = 5000.0) -> str:
+    """Case 3 at a constant 20 Hz, ``steps`` samples at ``rate_hz`` (+ the balancer of
+    balancer_foot_mount.yaml, which carries case 3's machine with the balancer plane)."""
+    includes = [str(find_config("foot_mount_case3"))]
     if balancer:
         includes.insert(0, str(find_config("balancer_foot_mount")))
-    path = folder / f"bench_{'balancer' if balancer else 'case3'}.yaml"
+    path = folder / f"bench_{'balancer' if balancer else 'case3'}_{rate_hz:g}_{steps}.yaml"
     path.write_text(f"""include: [{', '.join(includes)}]
 simulation:
-  sample_rate_hz: 5000.0
-  duration_s: {steps / 5000.0}
+  sample_rate_hz: {rate_hz}
+  duration_s: {steps / rate_hz}
   speed: {{type: constant, speed_hz: 20.0}}
   unbalance:
     static: {{magnitude: 1.0e-2, phase_deg: 0.0}}
@@ -77,29 +87,31 @@ simulation:
     return str(path)
 
 
-def ping_pong(kind: str, rounds: int) -> float:
-    """Round trips per second: AccelStamped out, WrenchStamped back, next one from the callback."""
+def params(**values):
+    return [Parameter(k, value=v) for k, v in values.items()]
+
+
+def ping_pong(rounds: int) -> float:
+    """Round trips per second in one process: AccelStamped out, WrenchStamped back."""
     ping, pong = rclpy.create_node("bench_ping"), rclpy.create_node("bench_pong")
     out = ping.create_publisher(AccelStamped, "/bench/ping", m.LOCKSTEP_QOS)
     back = pong.create_publisher(WrenchStamped, "/bench/pong", m.LOCKSTEP_QOS)
-    measurement, force = AccelStamped(), WrenchStamped()      # typed rclpy messages
+    measurement, force = AccelStamped(), WrenchStamped()
     state = {"n": 0}
 
     def on_ping(msg):
         force.header.stamp = msg.header.stamp
-        force.wrench.force.z = 1.0
         back.publish(force)
 
     def on_pong(msg):
         state["n"] += 1
         if state["n"] < rounds:
             measurement.header.stamp.nanosec = state["n"]
-            measurement.accel.linear.z = 0.5
             out.publish(measurement)
 
     pong.create_subscription(AccelStamped, "/bench/ping", on_ping, m.LOCKSTEP_QOS)
     ping.create_subscription(WrenchStamped, "/bench/pong", on_pong, m.LOCKSTEP_QOS)
-    ex = make_executor(kind)
+    ex = make_executor("events")
     ex.add_node(ping)
     ex.add_node(pong)
     try:
@@ -118,17 +130,64 @@ def ping_pong(kind: str, rounds: int) -> float:
         pong.destroy_node()
 
 
-def closed_loop(kind: str, sc: str, balancer: bool, profile: bool = False) -> float:
-    """Plant steps per second of the lockstep graph (all nodes in one executor)."""
-    def p(**values):
-        return [Parameter(k, value=v) for k, v in values.items()]
-    plant = PlantSimulator("bench_plant", parameter_overrides=p(scenario=sc, balancer=balancer))
-    nodes = [plant] + [FootController(f"bench_fc_{f}", parameter_overrides=p(scenario=sc,
-                                                                              foot_id=f))
-                       for f in FEET]
-    if balancer:
-        nodes.append(Balancer("bench_balancer", parameter_overrides=p(scenario=sc)))
-    ex = make_executor(kind)
+PONG = """
+import rclpy, sys
+from geometry_msgs.msg import AccelStamped, WrenchStamped
+from rclpy.serialization import serialize_message
+from rotor_avc.nodes import messages as m
+from rotor_avc.nodes.runtime import make_executor
+rclpy.init()
+node = rclpy.create_node("bench_pong_process")
+back = node.create_publisher(WrenchStamped, "/bench/xpong", m.LOCKSTEP_QOS)
+data = serialize_message(WrenchStamped())
+node.create_subscription(AccelStamped, "/bench/xping", lambda d: back.publish(data),
+                         m.LOCKSTEP_QOS, raw=True)
+ex = make_executor("events")
+ex.add_node(node)
+while sys.stdin.readable() and rclpy.ok():
+    ex.spin_once(timeout_sec=0.1)
+"""
+
+
+def ping_pong_processes(rounds: int) -> float:
+    """Round trips per second between two processes (raw bytes both ways)."""
+    from rclpy.serialization import serialize_message
+    proc = subprocess.Popen([sys.executable, "-c", PONG], stdin=subprocess.PIPE)
+    node = rclpy.create_node("bench_ping_process")
+    out = node.create_publisher(AccelStamped, "/bench/xping", m.LOCKSTEP_QOS)
+    data = serialize_message(AccelStamped())
+    state = {"n": 0}
+
+    def on_pong(_):
+        state["n"] += 1
+        if state["n"] < rounds:
+            out.publish(data)
+
+    node.create_subscription(WrenchStamped, "/bench/xpong", on_pong, m.LOCKSTEP_QOS, raw=True)
+    ex = make_executor("events")
+    ex.add_node(node)
+    try:
+        t_end = time.monotonic() + 60
+        while (out.get_subscription_count() < 1 or node.count_publishers("/bench/xpong") < 1) \
+                and time.monotonic() < t_end:
+            ex.spin_once(timeout_sec=0.05)
+        for _ in range(20):                       # let the match settle on both sides
+            ex.spin_once(timeout_sec=0.01)
+        t0 = time.perf_counter()
+        out.publish(data)
+        while state["n"] < rounds and time.monotonic() < t_end + 120:
+            ex.spin_once(timeout_sec=0.1)
+        return state["n"] / (time.perf_counter() - t0)
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        proc.kill()
+        proc.wait()
+
+
+def run_in_process(nodes, plant, profile: bool = False) -> float:
+    """Spin ``nodes`` in one events executor until the plant's run is complete; samples/s."""
+    ex = make_executor("events")
     for n in nodes:
         ex.add_node(n)
     prof = cProfile.Profile() if profile else None
@@ -142,47 +201,130 @@ def closed_loop(kind: str, sc: str, balancer: bool, profile: bool = False) -> fl
             ex.spin_once(timeout_sec=0.1)
         if prof:
             prof.disable()
-        if plant.fault_log or plant.book.resends:
+        for n in nodes:
+            if hasattr(n, "drain"):
+                n.drain(ex)
+        if plant.fault_log or plant.book.resends or plant.exit_status:
             raise RuntimeError(f"the benchmark run had faults: {plant.fault_log}, "
                                f"{plant.book.resends} resends")
         return plant.n_steps / plant.wall_s
     finally:
         ex.shutdown()
         for n in nodes:
+            if hasattr(n, "close"):
+                n.close()
             n.destroy_node()
         if prof:
             text = io.StringIO()
-            pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(18)
+            pstats.Stats(prof, stream=text).sort_stats("tottime").print_stats(15)
             print(text.getvalue())
+
+
+def loop(sc: str) -> float:
+    plant = PlantSimulator("bench_plant", parameter_overrides=params(scenario=sc))
+    ctrls = [FootController(f"bench_fc_{f}", parameter_overrides=params(scenario=sc, foot_id=f))
+             for f in FEET]
+    return run_in_process([plant, *ctrls], plant)
+
+
+def loop_recorded(sc: str, bag: Path, profile: bool = False) -> float:
+    nodes = []
+    build_nodes(sc, str(bag), nodes)
+    return run_in_process(nodes, nodes[-1], profile)
+
+
+def loop_dds_recorder(sc: str, bag: Path) -> float:
+    rec = Recorder("bench_recorder", parameter_overrides=params(scenario=sc, path=str(bag)))
+    plant = PlantSimulator("bench_plant", parameter_overrides=params(
+        scenario=sc, wait_for_recorder="bench_recorder"))
+    ctrls = [FootController(f"bench_fc_{f}", parameter_overrides=params(scenario=sc, foot_id=f))
+             for f in FEET]
+    return run_in_process([rec, plant, *ctrls], plant)
+
+
+def processes(sc: str, bag: Path, logs: Path) -> float:
+    run = run_graph(sc, bag, logs)
+    return _plant_rate(run.logs["plant_simulator"])
+
+
+def _plant_rate(log: str) -> float:
+    return float(re.search(r"\(([0-9.]+) samples/s\)", log).group(1))
+
+
+def realtime(folder: Path, rate_hz: float) -> dict:
+    """One composed real-time run of 2 s at ``rate_hz`` with the recorder."""
+    sc = scenario(folder, int(2 * rate_hz), rate_hz=rate_hz)
+    bag = folder / f"realtime_{rate_hz:g}.mcap"
+    try:
+        run = run_graph(sc, bag, folder / "logs", layout="composed",
+                        plant_params={"mode": "realtime", "realtime_overload": "warn"})
+    except Exception as exc:                     # reported in the table, not hidden
+        return {"error": str(exc).splitlines()[0][:120]}
+    log = run.logs["composed"]
+    row = {"held": "not held" not in log}
+    found = re.search(r"mean period ([0-9.]+) us \(([-+0-9.]+) %\), lateness p50 (\d+) / p99 "
+                      r"(\d+) / max (\d+) us, \d+ overruns \((\d+) per 10,000", log)
+    if found:
+        row.update(zip(("period_us", "error_pct", "p50", "p99", "max", "over"), found.groups()))
+    with BagReader(bag) as r:
+        counts = r.counts or {}
+    row["lost"] = {t: c["published"] - c["recorded"] for t, c in counts.items()
+                   if c["published"] is not None and c["published"] > c["recorded"]}
+    return row
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--steps", type=int, default=3000, help="lockstep samples per run")
+    ap.add_argument("--steps", type=int, default=10000, help="lockstep samples per run")
     ap.add_argument("--repeats", type=int, default=3, help="best of this many runs per figure")
-    ap.add_argument("--profile", action="store_true", help="profile the events-executor loop")
+    ap.add_argument("--profile", action="store_true", help="profile one loop + recorder run")
     args = ap.parse_args()
     rclpy.init()
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            scenarios = {b: scenario(Path(tmp), args.steps, b) for b in (False, True)}
-            print(f"{'executor':16s} {'ping-pong /s':>13s} {'case 3* steps/s':>16s} {'ratio':>6s}"
-                  f" {'+ balancer /s':>14s} {'ratio':>6s}")
-            for kind in EXECUTORS:
-                best = range(args.repeats)
-                base = max(ping_pong(kind, args.steps) for _ in best)
-                loop = max(closed_loop(kind, scenarios[False], False,
-                                       args.profile and kind == "events" and i == 0)
-                           for i in best)
-                bal = max(closed_loop(kind, scenarios[True], True,
-                                      args.profile and kind == "events" and i == 0)
-                          for i in best)
-                print(f"{kind:16s} {base:13.0f} {loop:16.0f} {loop / base:6.0%} {bal:14.0f} "
-                      f"{bal / base:6.0%}", flush=True)
+            folder = Path(tmp)
+            sc, sc_bal = scenario(folder, args.steps), scenario(folder, args.steps, True)
+            graphs = {
+                "ping-pong (1 process)": lambda i: ping_pong(args.steps),
+                "ping-pong (2 processes)": lambda i: ping_pong_processes(args.steps),
+                "loop": lambda i: loop(sc),
+                "loop + recorder": lambda i: loop_recorded(sc, folder / f"r{i}.mcap",
+                                                           args.profile and i == 0),
+                "loop + recorder + balancer": lambda i: loop_recorded(
+                    sc_bal, folder / f"b{i}.mcap"),
+                "loop + DDS recorder": lambda i: loop_dds_recorder(sc, folder / f"d{i}.mcap"),
+                "processes + recorder": lambda i: processes(sc, folder / f"p{i}.mcap",
+                                                            folder / f"logs{i}"),
+            }
+            best = {name: 0.0 for name in graphs}
+            for i in range(args.repeats):
+                for name, run in graphs.items():
+                    best[name] = max(best[name], run(i))
+            base = best["loop"]
+            print(f"lockstep, seed 000 case 3, 5 kHz, {args.steps} samples, best of "
+                  f"{args.repeats}")
+            print(f"{'graph':30s} {'per s':>9s} {'vs loop':>8s}")
+            for name, rate in best.items():
+                print(f"{name:30s} {rate:9.0f} {rate / base:8.0%}")
+            rec = best["loop + recorder"]
+            print(f"goal: loop + recorder >= 5000 samples/s ({rec:.0f}) and >= 75 % of the loop "
+                  f"({rec / base:.0%})")
+            print("\nreal time (mode: realtime), composed graph with the recorder, 2 s per rate")
+            print(f"{'rate':>7s} {'mean period':>14s} {'error':>9s} {'late p50':>9s} "
+                  f"{'p99':>7s} {'max':>7s} {'overruns/10k':>13s}  lost per topic")
+            for rate_hz in REALTIME_HZ:
+                row = realtime(folder, rate_hz)
+                if "error" in row:
+                    print(f"{rate_hz:7.0f} {row['error']}")
+                    continue
+                lost = ", ".join(f"{t} {n}" for t, n in row["lost"].items()) or "none"
+                print(f"{rate_hz:7.0f} {row.get('period_us', '?'):>11s} us "
+                      f"{row.get('error_pct', '?'):>7s} % {row.get('p50', '?'):>6s} us "
+                      f"{row.get('p99', '?'):>4s} us {row.get('max', '?'):>4s} us "
+                      f"{row.get('over', '?'):>13s}  {lost}"
+                      + ("" if row["held"] else "   (rate check: not held)"), flush=True)
     finally:
         rclpy.shutdown()
-    print("goal: case 3* and + balancer >= 25 % of the ping-pong rate (>= 5000 steps/s is real "
-          "time at 5 kHz)")
 
 
 if __name__ == "__main__":

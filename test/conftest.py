@@ -2,6 +2,8 @@
 
 ``--full`` runs the long physics sweeps in full (CI runs them in their short form)."""
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -26,3 +28,19 @@ def pytest_configure(config):
 def full(request) -> bool:
     """True when the long sweeps should run in full."""
     return request.config.getoption("--full")
+
+
+#: CPU-bound competitors end by themselves after this long, should a test run forget them
+COMPETITOR_MAX_S = 600
+
+
+@pytest.fixture
+def competitors():
+    """Two CPU-bound processes competing for the 2 cores while the test runs (bounded in time,
+    ended by the fixture): the graph must then still record every sample."""
+    code = f"import time\nt = time.monotonic() + {COMPETITOR_MAX_S}\nwhile time.monotonic() < t: pass"
+    procs = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(2)]
+    yield procs
+    for p in procs:
+        p.kill()
+        p.wait()

@@ -36,10 +36,31 @@ def spin_until(executor, condition, timeout_s: float = 60.0, step_s: float = 0.0
 def node_process(module: str, *ros_args: str, env_extra: dict | None = None,
                  stdout=subprocess.PIPE) -> subprocess.Popen:
     """Start ``python -m rotor_avc.nodes.<module> --ros-args ...`` (ROS env of the test run)."""
+    from rotor_avc.nodes.signals import spawn
     env = dict(os.environ, PYTHONUNBUFFERED="1", **(env_extra or {}))
-    return subprocess.Popen([sys.executable, "-m", f"rotor_avc.nodes.{module}", "--ros-args",
-                             *ros_args], cwd=ROOT, env=env, stdout=stdout,
-                            stderr=subprocess.STDOUT, text=True)
+    return spawn([sys.executable, "-m", f"rotor_avc.nodes.{module}", "--ros-args", *ros_args],
+                 cwd=ROOT, env=env, stdout=stdout, stderr=subprocess.STDOUT, text=True)
+
+
+def wait_for_nodes(names, timeout_s: float = 120.0, procs=()) -> bool:
+    """Wait until every node of ``names`` is in the ROS graph (their readiness), seen by a
+    listener node of this process in its own context; False on timeout or when one of
+    ``procs`` has exited."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("test_graph_listener", context=context)
+    try:
+        t_end = time.monotonic() + timeout_s
+        while time.monotonic() < t_end:
+            if set(names) <= set(node.get_node_names()):
+                return True
+            if any(p.poll() is not None for p in procs):
+                return False
+            time.sleep(0.05)
+        return False
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)
 
 
 def stop(proc: subprocess.Popen, timeout_s: float = 10.0) -> str:

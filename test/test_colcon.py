@@ -1,6 +1,7 @@
 """The package builds with colcon as an ament_python package, and every node is found the way
 ``ros2 run rotor_avc <node>`` finds it (ament index prefix + ``lib/rotor_avc/<exe>``) and starts,
-with its config found in the colcon install layout."""
+with its config found in the colcon install layout; started together, each is ready (in the ROS
+graph) and ends on SIGTERM with status 0."""
 import ast
 import os
 import re
@@ -9,7 +10,6 @@ import signal
 import subprocess
 import sys
 import sysconfig
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +17,7 @@ import pytest
 pytest.importorskip("colcon_core", reason="colcon-core is not installed (pip install colcon-core)")
 pytest.importorskip("colcon_ros", reason="colcon-ros is not installed (pip install colcon-ros)")
 ament_packages = pytest.importorskip("ament_index_python.packages")
+from ros_helpers import wait_for_nodes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the node list setup.py installs (read, not imported: importing setup.py would run setup())
@@ -83,13 +84,14 @@ def test_every_node_is_found_by_ros2_run_lookup_and_starts(workspace, tmp_path):
         args = [a.format(tmp=tmp_path) for a in NODE_ARGS[node]]
         procs[node] = subprocess.Popen([str(exe), "--ros-args", *args], cwd=tmp_path, env=env,
                                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(6.0)
+    ready = wait_for_nodes(NODES, timeout_s=180, procs=procs.values())
     outputs = {}
     for node, proc in procs.items():
         alive = proc.poll() is None
         proc.send_signal(signal.SIGTERM)
         out, _ = proc.communicate(timeout=30)
         outputs[node] = (alive, proc.returncode, out)
+    assert ready, {node: out for node, (_, _, out) in outputs.items()}
     for node, (alive, code, out) in outputs.items():
         assert alive, f"{node} exited early: {out}"
         assert code == 0 and "Traceback" not in out, f"{node}: {out}"

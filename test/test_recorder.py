@@ -185,7 +185,7 @@ def test_lockstep_run_records_every_message(tmp_path):
         np.testing.assert_array_equal(joint["position[0]"], ts.angle_rad)
         np.testing.assert_array_equal(r.series("/clock").time_ns, t_ns)
         qos = r.topics["/avc/foot/DL/acceleration"].qos[0]
-        assert qos["reliability"] == "reliable" and qos["durability"] == "volatile"
+        assert qos["reliability"] == "reliable" and qos["durability"] == "transient_local"
     check_other_readers(path, counts)
 
 
@@ -200,7 +200,8 @@ class RecorderWatch:
     def _on_diag(self, arr) -> None:
         for st in arr.status:
             if st.name == "recorder: recording":
-                self.counts = {kv.key: int(kv.value) for kv in st.values}
+                self.counts = {kv.key[:-len(" recorded")]: int(kv.value) for kv in st.values
+                               if kv.key.endswith(" recorded")}
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])

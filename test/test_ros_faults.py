@@ -193,7 +193,7 @@ def test_realtime_mode_reports_loop_timing(tmp_path, policy):
     assert float(values["period_mean_s"]) == pytest.approx(1e-3, rel=0.5)
     ts = plant.result()
     assert np.all(np.isfinite(ts["actuator_DL_fz"])) and np.std(ts["actuator_DL_fz"][100:]) > 0
-    ctrl_diag = [st for st in lis.statuses() if st.name.startswith("fc_rt_DL")]
+    ctrl_diag = [st for st in lis.statuses() if st.name == "fc_rt_DL: DL"]
     assert ctrl_diag and "exec_p99_s" in {kv.key for kv in ctrl_diag[-1].values}
 
 

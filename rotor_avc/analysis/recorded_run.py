@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bag import BagError, BagReader
+from ..bag.sequence import require_complete
 from ..sim.scenario import Scenario, scenario_from_config
 
 
@@ -72,6 +73,7 @@ def read_run(path) -> RecordedRun:
             raise BagError(path, f"the recorded damping rule {recorded!r} differs from the one "
                            f"its configuration gives ({scenario.damping.describe()!r})",
                            fix="re-record the run with this version of the package")
+        sequence = require_complete(bag, scenario.n_steps)
         joints = [t for t in bag.topics if t.endswith("/rotor/joint_state")]
         if not joints:
             raise BagError(path, "no rotor/joint_state topic: the comparison needs the recorded "
@@ -97,7 +99,7 @@ def read_run(path) -> RecordedRun:
     if common.size < 3:
         raise BagError(path, "fewer than 3 samples are present on every needed topic "
                        f"({', '.join(topics.values())})", fix="record a longer run")
-    notes = []
+    notes = list(sequence.notes)
     dropped = times["joint"][0].size - common.size
     if dropped:
         notes.append(f"{dropped} samples of rotor/joint_state are missing on another topic and "

@@ -271,6 +271,21 @@ class BagReader:
                                    labels_of(first))
         return self._series_by_message(topic, codec.type_name)
 
+    def log_times(self, topic: str) -> np.ndarray:
+        """Log times (ns) of a topic's messages, sorted: from the message indexes without
+        decompressing a chunk, or by reading the messages of a file without them."""
+        cid = self._channel_id(topic)
+        times = []
+        for ci in self._summary.chunk_indexes:
+            if cid in ci.message_index_offsets:
+                times.append(self._message_index(ci.message_index_offsets[cid])[:, 0])
+            elif not ci.message_index_offsets:
+                return np.sort(np.fromiter((m.time_ns for m in self.raw_messages(topic)),
+                                           np.int64))
+        if not times:
+            return np.zeros(0, np.int64)
+        return np.sort(np.concatenate(times).astype(np.int64))
+
     def _indexed_rows(self, cid: int):
         """(times, (N, size) payload bytes) via the message index, or (None, None)."""
         times, blocks = [], []

@@ -2,7 +2,8 @@
 
 Each command module defines ``NAME``, ``HELP`` (one line), ``EXAMPLE`` and ``add_arguments(p)``
 and ``run(args) -> int``. Errors the user can fix (:class:`rotor_avc.errors.RotorAvcError`) are
-printed as one line and exit with status 2; nothing else is caught.
+printed as one line and exit with status 2 (or the error's own ``exit_status``, e.g. 3 for a
+recording with missing samples); nothing else is caught.
 """
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(args._run(args) or 0)
     except RotorAvcError as exc:
         print(f"rotor-avc {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return getattr(exc, "exit_status", 2)
 
 
 if __name__ == "__main__":

@@ -3,9 +3,10 @@
 1. The seed-000 analysis: pole tables of cases 1-3 (worst-case procedure, Figure 4) and their
    unbalance FRFs (CSV + plots).
 2. The seed-000 machine as a ROS graph in lockstep -- plant, three foot controllers (case 3),
-   recorder, each its own process (rotor_avc.nodes.graph) -- through a stepped run-up that dwells
-   at the six open-loop machine resonances, loops open (case 2) and closed (case 3), each
-   recorded to ``bags/``. Without rclpy the same runs go through the in-process loop (identical
+   recorder, each its own process (rotor_avc.nodes.graph; ``--composed``: one process) --
+   through a stepped run-up that dwells at the six open-loop machine resonances, loops open
+   (case 2) and closed (case 3), each recorded to ``bags/``, with the messages published and
+   recorded per topic (a run that lost any is an error). Without rclpy the same runs go through the in-process loop (identical
    results, rotor_avc.sim.loop), and the demo says so.
 3. Both bags compared offline against the continuous and sampled-loop models (``rotor-avc
    compare``), and the vibration reduction at each resonance: measured (case 3 vs case 2 bag)
@@ -25,6 +26,7 @@ import numpy as np
 from ..analysis.comparison import compare_bag
 from ..analysis.frf import unbalance_frf
 from ..analysis.poles import machine_poles
+from ..errors import RotorAvcError
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
 from .compare import report
@@ -44,8 +46,12 @@ BEARINGS = ("bearing_D_vz", "bearing_D_vy", "bearing_N_vz", "bearing_N_vy")
 def add_arguments(p) -> None:
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder")
     p.add_argument("--bags", type=Path, default=Path("bags"), help="where the runs are recorded")
-    p.add_argument("--in-process", action="store_true",
-                   help="run the scenarios in the in-process loop instead of the ROS graph")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--in-process", action="store_true",
+                      help="run the scenarios in the in-process loop instead of the ROS graph")
+    mode.add_argument("--composed", action="store_true",
+                      help="run the graph's nodes in one process and executor (several times "
+                           "faster) instead of one process per node")
 
 
 def run(args) -> int:
@@ -54,7 +60,8 @@ def run(args) -> int:
     summary = {"analysis": analysis(args.out / "analysis")}
     print("\n== The seed-000 machine in the ROS graph: stepped run-up, loops open and closed")
     bags = {case: record(scenario, args.bags / f"demo_{case}.mcap", args.out / "logs" / case,
-                         args.in_process) for case, scenario in RUNS.items()}
+                         args.in_process, "composed" if args.composed else "processes")
+            for case, scenario in RUNS.items()}
     comps = {}
     for case, bag in bags.items():
         print(f"\n== Comparison of {bag} with the models")
@@ -102,8 +109,10 @@ def analysis(out: Path) -> dict:
     return summary
 
 
-def record(scenario: str, bag: Path, logs: Path, in_process: bool) -> Path:
-    """Run one scenario through the ROS graph (or in-process) and record it to ``bag``."""
+def record(scenario: str, bag: Path, logs: Path, in_process: bool,
+           layout: str = "processes") -> Path:
+    """Run one scenario through the ROS graph (or in-process) and record it to ``bag``; prints
+    the messages published and recorded per topic."""
     try:
         if in_process:
             raise ImportError
@@ -112,11 +121,18 @@ def record(scenario: str, bag: Path, logs: Path, in_process: bool) -> Path:
         return _record_in_process(scenario, bag, "requested" if in_process else
                                   "rclpy is not installed")
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    print(f"{scenario}: starting the graph (logs in {logs})")
-    result = run_graph(scenario, bag, logs, progress=_progress)
+    print(f"{scenario}: starting the graph ({layout}; logs in {logs})")
+    result = run_graph(scenario, bag, logs, progress=_progress, layout=layout)
     sys.stderr.write("\n")
     print(f"{scenario}: {result.steps} lockstep samples in {result.wall_s:.1f} s "
-          f"({result.steps / max(result.wall_s, 1e-9):.0f} samples/s) -> {bag}")
+          f"({result.steps / max(result.wall_s, 1e-9):.0f} samples/s, start-up included) -> {bag}")
+    print(f"  {'topic':<32} {'published':>10} {'recorded':>10}")
+    for topic, c in sorted(result.counts.items()):
+        published = "?" if c["published"] is None else c["published"]
+        print(f"  {topic:<32} {published:>10} {c['recorded']:>10}")
+    lost = result.lost()
+    if lost:
+        raise RotorAvcError(f"{bag}: messages were lost ({lost}); see the logs in {logs}")
     return bag
 
 

@@ -1,7 +1,8 @@
 """``rotor-avc replay``: publish a bag's messages into the ROS graph (rotor_avc.nodes.replay).
 
 The bag is checked first, without ROS (a truncated file, an unknown schema, no configuration
-metadata, an empty bag: one-line error, exit status 2); rclpy is imported only then, so the rest
+metadata, an empty bag: one-line error, exit status 2; samples missing on a sampled topic or
+published but not recorded: one verdict, exit status 3, rotor_avc.bag.sequence); rclpy is imported only then, so the rest
 of the command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
 foot controller re-driven with the recorded foot accelerations) are compared with the recorded
 answers of the same stamps, and the exit status is 1 when any differs by more than TOL.
@@ -12,6 +13,7 @@ import argparse
 from pathlib import Path
 
 from ..bag.reader import BagReader
+from ..bag.sequence import require_complete
 from ..errors import RotorAvcError
 from .common import nonnegative_float
 
@@ -69,6 +71,8 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     with BagReader(args.bag, require_config=True, require_messages=True) as reader:
+        for note in require_complete(reader).notes:
+            print(f"note: {note}")
         try:
             from ..nodes import replay as R          # rclpy: imported only here
         except ImportError as exc:

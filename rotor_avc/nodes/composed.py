@@ -23,7 +23,8 @@ from ..sim.scenario import load_scenario
 from . import signals
 from .runtime import make_executor
 
-def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events") -> list:
+def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events",
+                plant_params: dict | None = None) -> list:
     """The scenario's nodes, recorder first and plant last, for one executor, appended to
     ``nodes`` as they are built (so a failure half-way leaves the built ones to be closed)."""
     from .balancer import Balancer
@@ -48,30 +49,42 @@ def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = 
             scenario=scenario_name, executor=executor)))
     nodes.append(PlantSimulator("plant_simulator", parameter_overrides=params(
         scenario=scenario_name, wait_for_recorder="recorder", balancer=scenario.use_balancer,
-        executor=executor)))
+        executor=executor, **(plant_params or {}))))
     return nodes
 
 
-def _ros_param(args: list[str], name: str) -> str:
-    """The value of ``-p name:=value`` among ``--ros-args``."""
-    for a, b in zip(args, args[1:]):
-        if a == "-p" and b.startswith(f"{name}:="):
-            return b.split(":=", 1)[1]
-    raise RotorAvcError(f"composed: parameter '{name}' is missing -- fix: -p {name}:=...")
+#: plant parameters the composed graph takes besides scenario and path (string-valued)
+PLANT_PARAMS = ("mode", "realtime_overload")
+
+
+def _ros_params(args: list[str]) -> dict[str, str]:
+    """``-p name:=value`` pairs among ``--ros-args``; scenario and path are required and
+    only PLANT_PARAMS are taken besides them."""
+    values = {b.split(":=", 1)[0]: b.split(":=", 1)[1] for a, b in zip(args, args[1:])
+              if a == "-p" and ":=" in b}
+    for name in ("scenario", "path"):
+        if name not in values:
+            raise RotorAvcError(f"composed: parameter '{name}' is missing -- fix: -p {name}:=...")
+    unknown = set(values) - {"scenario", "path", *PLANT_PARAMS}
+    if unknown:
+        raise RotorAvcError(f"composed: unknown parameter(s) {', '.join(sorted(unknown))} -- "
+                            f"fix: use scenario, path or {', '.join(PLANT_PARAMS)}")
+    return values
 
 
 def main(args=None) -> int:
     signals.running()
     argv = list(sys.argv[1:] if args is None else args)
     try:
-        scenario_name, bag = _ros_param(argv, "scenario"), _ros_param(argv, "path")
+        values = _ros_params(argv)
+        scenario_name, bag = values.pop("scenario"), values.pop("path")
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
     nodes, status = [], 0
     try:
-        build_nodes(scenario_name, bag, nodes)
+        build_nodes(scenario_name, bag, nodes, plant_params=values)
         plant, recorder = nodes[-1], nodes[0]
         executor = make_executor("events")
         for node in nodes:
@@ -89,6 +102,7 @@ def main(args=None) -> int:
     except (signals.Stop, KeyboardInterrupt):
         pass
     finally:
+        signals.shutting_down()
         for node in reversed(nodes):              # the plant first, the recorder last
             close = getattr(node, "close", None)
             if close is not None:

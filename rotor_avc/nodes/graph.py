@@ -76,15 +76,18 @@ def _node(module: str, name: str, args: list[str]) -> list[str]:
     return ["-m", f"rotor_avc.nodes.{module}", "--ros-args", "-r", f"__node:={name}", *args]
 
 
-def node_commands(scenario, bag: Path, layout: str = "processes") -> dict[str, list[str]]:
-    """The processes of a run: name -> interpreter arguments (the plant last)."""
+def node_commands(scenario, bag: Path, layout: str = "processes",
+                  plant_params: dict | None = None) -> dict[str, list[str]]:
+    """The processes of a run: name -> interpreter arguments (the plant last);
+    ``plant_params``: more plant_simulator parameters (e.g. ``{"mode": "realtime"}``)."""
     if layout not in LAYOUTS:
         raise RotorAvcError(f"unknown graph layout {layout!r} -- fix: use one of "
                             + ", ".join(LAYOUTS))
     source = str(scenario.machine.config.source)
+    extra = [a for k, v in (plant_params or {}).items() for a in ("-p", f"{k}:={v}")]
     if layout == "composed":
         return {"composed": ["-m", "rotor_avc.nodes.composed", "--ros-args",
-                             "-p", f"scenario:={source}", "-p", f"path:={bag}"]}
+                             "-p", f"scenario:={source}", "-p", f"path:={bag}", *extra]}
     common = ["-p", f"scenario:={source}"]
     cmds = {"recorder": _node("recorder", "recorder", common + ["-p", f"path:={bag}"])}
     for foot in scenario.machine.controllers:
@@ -97,21 +100,23 @@ def node_commands(scenario, bag: Path, layout: str = "processes") -> dict[str, l
     if scenario.use_balancer:
         cmds["balancer"] = _node("balancer", "balancer", common)
         plant_args += ["-p", "balancer:=true"]
-    cmds["plant_simulator"] = _node("plant_simulator", "plant_simulator", plant_args)
+    cmds["plant_simulator"] = _node("plant_simulator", "plant_simulator", plant_args + extra)
     return cmds
 
 
 def run_graph(scenario_name: str, bag: Path, log_dir: Path,
               progress: Callable[[int, int], None] | None = None,
-              timeout_s: float = 3600.0, layout: str = "processes") -> GraphRun:
-    """Run ``scenario_name`` (a config name or path) through the ROS graph, recording ``bag``."""
+              timeout_s: float = 3600.0, layout: str = "processes",
+              plant_params: dict | None = None) -> GraphRun:
+    """Run ``scenario_name`` (a config name or path) through the ROS graph, recording ``bag``
+    (``layout``: processes or composed; ``plant_params``: more plant parameters)."""
     scenario = load_scenario(scenario_name)
     bag, log_dir = Path(bag), Path(log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     bag.parent.mkdir(parents=True, exist_ok=True)
     if bag.exists():
         bag.unlink()
-    cmds = node_commands(scenario, bag, layout)
+    cmds = node_commands(scenario, bag, layout, plant_params)
     listener = _Progress(progress)
     procs: dict[str, tuple[subprocess.Popen, Path]] = {}
     main_name = next(reversed(cmds))          # the plant, or the one composed process

@@ -30,8 +30,8 @@ Real time: sample ``k`` is due at ``t_0 + k T`` on the wall clock (an absolute s
 drift however late single ticks are; a late sample is taken at once and the next ones catch up,
 none is skipped). After the first ``RATE_CHECK_S`` of the run the plant checks that it holds
 the rate (at most ``RATE_CHECK_OVERRUNS`` of the samples more than a period late); if not, it
-says so with the numbers and ends the run (exit status 3), or goes on with a warning under
-``realtime_overload: warn``. Lateness percentiles and overruns are on ``/diagnostics`` and in the
+says so with the numbers on ``/diagnostics`` and in the log and goes on, or, with
+``realtime_overload: abort``, ends the run (exit status 3). Lateness percentiles and overruns are on ``/diagnostics`` and in the
 final log line.
 
 The lockstep messages travel as serialised bytes (rotor_avc.nodes.messages: raw publishers and
@@ -94,9 +94,9 @@ PARAMS = COMMON_PARAMS + (
     Param("recorder_timeout_s", 10.0, "lockstep with wait_for_recorder: wall time the plant waits "
           "for a recorder that takes nothing before it ends the run (exit status 1)",
           minimum=0.1, maximum=3600.0),
-    Param("realtime_overload", "abort", "real time: a rate the graph does not hold after the "
-          "first 0.25 s ends the run (abort, exit status 3) or is reported (warn)",
-          choices=("abort", "warn")),
+    Param("realtime_overload", "warn", "real time: a rate the graph does not hold in the "
+          "first 0.25 s is reported on /diagnostics and in the log (warn) or also ends the run "
+          "(abort, exit status 3)", choices=("warn", "abort")),
 )
 
 

@@ -105,6 +105,9 @@ class _Channel:
 class Recorder(Node):
     """The recorder node (see the module docstring)."""
 
+    #: no last /diagnostics at the end (it could not be recorded any more); the log says all
+    final_diagnostics = False
+
     def __init__(self, name: str = "recorder", **kwargs):
         super().__init__(name, **kwargs)
         self.p = declare_parameters(self, PARAMS)
@@ -120,6 +123,7 @@ class Recorder(Node):
         self.prefix = m.topic("", self.p["namespace"]).rstrip("/") + "/"
         self.progress_topic = m.topic(m.RECORDER_PROGRESS, self.p["namespace"])
         self.channels: dict[str, _Channel] = {}
+        self._baseline = taps.process_counts()      # published in this process before the recording
         self.last_time_ns = 0
         self._subs = {}
         self._skipped: set[str] = set()
@@ -130,6 +134,7 @@ class Recorder(Node):
         self.pub_progress = taps.publisher(self, Float64MultiArray, self.progress_topic,
                                            m.LOCKSTEP_QOS)
         self._unwatch = None
+        self._untap: list = []
         if self.p["source"] == "process":
             self._unwatch = taps.watch_publishers(self._tap_publisher)
         self.create_timer(DISCOVERY_PERIOD_S, self._discover)
@@ -196,7 +201,7 @@ class Recorder(Node):
             return
         ch = self._channel(name, [pub.type_name])
         if ch is not None:
-            taps.add_tap(name, ch.queue.append)
+            self._untap.append(taps.add_tap(name, ch.queue.append))
 
     def _lost(self, ch: _Channel, info) -> None:
         ch.lost += info.total_count_change
@@ -270,13 +275,10 @@ class Recorder(Node):
                                                         ch.published_remote.get(node, 0))
 
     def published(self) -> dict[str, int | None]:
-        """Messages published per topic, from the publishers' side: the counted publishers of
-        this process where the topic has any, else the counts its nodes reported; None when
-        no publisher reported."""
-        local: dict[str, int] = {}
-        for pub in taps.publishers():
-            if pub.topic_resolved in self.channels:
-                local[pub.topic_resolved] = local.get(pub.topic_resolved, 0) + pub.count
+        """Messages published per topic, from the publishers' side: by the counted publishers of
+        this process since the recorder was created, where the topic has had any, else the
+        counts its nodes reported on /diagnostics; None when no publisher reported."""
+        local = {t: n - self._baseline.get(t, 0) for t, n in taps.process_counts().items()}
         out = {}
         for name, ch in self.channels.items():
             if name in local:
@@ -321,6 +323,8 @@ class Recorder(Node):
         """Finish the bag (also on SIGINT/SIGTERM, via run_node) with its message counts."""
         if self._unwatch is not None:
             self._unwatch()
+        for untap in self._untap:
+            untap()
         self.flush()
         published, lost = self.published(), self.losses()
         log = self.get_logger()

@@ -153,6 +153,7 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
     except (signals.Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        signals.shutting_down()
         if node is not None:
             if rclpy.ok():
                 _final_diagnostics(node)
@@ -169,7 +170,7 @@ def _final_diagnostics(node: Node) -> None:
     """A node's last ``/diagnostics`` (its final published counts, which a recorder puts in the
     bag), waited for until the subscribers have it (at most FINAL_DIAGNOSTICS_WAIT_S)."""
     publish, pub = getattr(node, "_publish_diagnostics", None), getattr(node, "pub_diag", None)
-    if publish is None or pub is None:
+    if publish is None or pub is None or not getattr(node, "final_diagnostics", True):
         return
     publish()
     pub.wait_for_all_acked(Duration(seconds=FINAL_DIAGNOSTICS_WAIT_S))

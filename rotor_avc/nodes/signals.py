@@ -1,7 +1,7 @@
 """SIGINT and SIGTERM at any moment of a node's life: clean exit, status 0, no traceback.
 
 Light on purpose (standard library only): it is installed before a node imports numpy, scipy or
-rclpy, which take seconds on a loaded machine. Three phases:
+rclpy, which take seconds on a loaded machine. The phases:
 
 * **start-up** (interpreter start to the node's ``main``): a signal ends the process at once
   with status 0 -- nothing has been opened yet that would need finishing;
@@ -9,6 +9,7 @@ rclpy, which take seconds on a loaded machine. Three phases:
   discovery, the run): the first signal only asks the spin loop to stop after the current
   callback, so files (a bag) are finished on the way out; a second one unwinds at once through
   the same clean shutdown (:class:`Stop`);
+* **shutting down** (:func:`shutting_down`): signals are ignored until the process has exited;
 * processes started by :func:`spawn` begin with both signals *blocked* (the mask is inherited
   through ``exec``), so a signal sent before the interpreter has run a line stays pending and is
   handled by :func:`install` as it unblocks them -- no window in which the default action
@@ -60,6 +61,15 @@ def running() -> None:
     install()
     _state["phase"] = "running"
     _state["requested"] = False
+
+
+def shutting_down() -> None:
+    """The node is shutting down: later signals are ignored, so that none can interrupt the
+    shutdown (a bag being finished) or, arriving while the interpreter finalises (which resets
+    Python-level handlers to the default action), turn a clean exit into death by signal."""
+    for sig in SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+    _state["phase"] = "shutting down"
 
 
 def stop_requested() -> bool:

@@ -31,6 +31,8 @@ _TAPS: dict[str, list[Tap]] = {}
 #: the publishers of this process, and who wants to hear about new ones
 _PUBLISHERS: list["CountedPublisher"] = []
 _WATCHERS: list[Callable[["CountedPublisher"], None]] = []
+#: topic -> messages published by counted publishers of this process destroyed since
+_RETIRED: dict[str, int] = {}
 _LOCK = threading.Lock()
 
 
@@ -61,6 +63,7 @@ class CountedPublisher(Publisher):
         with _LOCK:
             if self in _PUBLISHERS:
                 _PUBLISHERS.remove(self)
+                _RETIRED[self.topic_resolved] = _RETIRED.get(self.topic_resolved, 0) + self.count
         super().destroy()
 
 
@@ -78,10 +81,14 @@ def published_counts(node) -> dict[str, int]:
     return counts
 
 
-def publishers() -> list[CountedPublisher]:
-    """The counted publishers of this process."""
+def process_counts() -> dict[str, int]:
+    """Messages published per topic by the counted publishers of this process, those destroyed
+    meanwhile included."""
     with _LOCK:
-        return list(_PUBLISHERS)
+        counts = dict(_RETIRED)
+        for pub in _PUBLISHERS:
+            counts[pub.topic_resolved] = counts.get(pub.topic_resolved, 0) + pub.count
+    return counts
 
 
 def watch_publishers(callback: Callable[[CountedPublisher], None]) -> Callable[[], None]:
