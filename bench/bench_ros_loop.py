@@ -115,19 +115,27 @@ def ping_pong(rounds: int) -> float:
     ex.add_node(ping)
     ex.add_node(pong)
     try:
-        t_end = time.monotonic() + 30
-        while (out.get_subscription_count() < 1 or back.get_subscription_count() < 1) \
-                and time.monotonic() < t_end:
-            ex.spin_once(timeout_sec=0.05)
-        t0 = time.perf_counter()
-        out.publish(measurement)
-        while state["n"] < rounds and time.monotonic() < t_end + 120:
-            ex.spin_once(timeout_sec=0.1)
-        return state["n"] / (time.perf_counter() - t0)
+        return round_trips(ex, out, lambda: back.get_subscription_count() > 0,
+                           lambda: out.publish(measurement), state, rounds)
     finally:
         ex.shutdown()
         ping.destroy_node()
         pong.destroy_node()
+
+
+def round_trips(ex, out, answering, first, state, rounds) -> float:
+    """Wait until ``out`` is matched and the answer is ``answering()``, send ``first()``; round
+    trips per second until ``state["n"]`` reaches ``rounds``."""
+    t_end = time.monotonic() + 60
+    while (out.get_subscription_count() < 1 or not answering()) and time.monotonic() < t_end:
+        ex.spin_once(timeout_sec=0.05)
+    for _ in range(20):                           # let the match settle on both sides
+        ex.spin_once(timeout_sec=0.01)
+    t0 = time.perf_counter()
+    first()
+    while state["n"] < rounds and time.monotonic() < t_end + 120:
+        ex.spin_once(timeout_sec=0.1)
+    return state["n"] / (time.perf_counter() - t0)
 
 
 PONG = """
@@ -167,17 +175,8 @@ def ping_pong_processes(rounds: int) -> float:
     ex = make_executor("events")
     ex.add_node(node)
     try:
-        t_end = time.monotonic() + 60
-        while (out.get_subscription_count() < 1 or node.count_publishers("/bench/xpong") < 1) \
-                and time.monotonic() < t_end:
-            ex.spin_once(timeout_sec=0.05)
-        for _ in range(20):                       # let the match settle on both sides
-            ex.spin_once(timeout_sec=0.01)
-        t0 = time.perf_counter()
-        out.publish(data)
-        while state["n"] < rounds and time.monotonic() < t_end + 120:
-            ex.spin_once(timeout_sec=0.1)
-        return state["n"] / (time.perf_counter() - t0)
+        return round_trips(ex, out, lambda: node.count_publishers("/bench/xpong") > 0,
+                           lambda: out.publish(data), state, rounds)
     finally:
         ex.shutdown()
         node.destroy_node()

@@ -67,7 +67,7 @@ class Balancer(Node):
                                  m.LOCKSTEP_QOS, raw=True)
         self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
                                  self._on_observables, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.joints: dict[int, tuple[float, float]] = {}

@@ -21,7 +21,7 @@ from rclpy.signals import SignalHandlerOptions
 from ..errors import RotorAvcError
 from ..sim.scenario import load_scenario
 from . import signals
-from .runtime import make_executor
+from .runtime import close_node, make_executor
 
 def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events",
                 plant_params: dict | None = None) -> list:
@@ -104,10 +104,7 @@ def main(args=None) -> int:
     finally:
         signals.shutting_down()
         for node in reversed(nodes):              # the plant first, the recorder last
-            close = getattr(node, "close", None)
-            if close is not None:
-                close()
-            node.destroy_node()
+            close_node(node)
         if rclpy.ok():
             rclpy.shutdown()
     return status

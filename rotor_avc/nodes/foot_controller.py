@@ -74,7 +74,7 @@ class FootController(Node):
                                          m.foot_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
         self.create_subscription(m.MEASUREMENT_TYPES[self.kind], m.foot_topic(foot, self.kind, ns),
                                  self._on_measurement, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.last_stamp = -1

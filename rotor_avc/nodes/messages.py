@@ -19,6 +19,8 @@ conversion of Python messages, not the nodes' arithmetic, was the cost of the lo
 """
 from __future__ import annotations
 
+import os
+import socket
 import struct
 from typing import Callable
 
@@ -27,12 +29,12 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PointStamped, TwistStamped, WrenchStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from ..bag.msgdefs import DEFINITIONS
+from ..bag.cdr import CdrCodec
+from ..bag.msgdefs import DEFINITIONS, known_specs
 from ..bag.topics import NAMESPACE, topic  # noqa: F401  (re-exported for the nodes)
 
 #: history of the lockstep publishers: deeper than any recorder window (the plant's
@@ -47,10 +49,16 @@ RECORDER_MARGIN = 96
 LOCKSTEP_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                           history=HistoryPolicy.KEEP_LAST,
                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: /diagnostics of the package's nodes: reliable, the last 10 kept for a late-joining recorder
+DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                             history=HistoryPolicy.KEEP_LAST,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: the recorder's taken-message counts (rotor_avc.nodes.recorder), relative to the namespace
 RECORDER_PROGRESS = "recorder/progress"
 #: name suffix of the diagnostic status in which a node reports its published counts per topic
 PUBLISHED_SUFFIX = ": published"
+PROCESS_KEY = "process"
+PROCESS_ID = f"{socket.gethostname()}:{os.getpid()}"
 MEASUREMENT_TYPES = {"acceleration": AccelStamped, "velocity": TwistStamped,
                      "displacement": PointStamped}
 STAMPED_TYPES = {**MEASUREMENT_TYPES, "actuator_force": WrenchStamped}
@@ -59,6 +67,7 @@ _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _F64 = struct.Struct("<d")
 _CDR_LE = 1                     # second byte of the encapsulation header 00 01 00 00
+_SPECS = known_specs()
 
 
 def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
@@ -108,7 +117,7 @@ class StampedVector:
         msg = STAMPED_TYPES[kind]()
         msg.header.frame_id = f"foot_{foot_id}"
         self.kind, self.foot_id, self.axis = kind, foot_id, axis
-        self._buf = bytearray(serialize_message(msg))
+        self._buf = bytearray(template(f"geometry_msgs/msg/{type(msg).__name__}", msg))
         self._value_at = _vector_offset(self._buf) + 8 * "xyz".index(axis)
 
     def fill(self, time_ns: int, value: float) -> bytes:
@@ -126,6 +135,15 @@ class Force(StampedVector):
 
     def __init__(self, foot_id: str, axis: str = "z"):
         super().__init__("actuator_force", foot_id, axis)
+
+
+def template(msg_type: str, msg) -> bytes:
+    """The CDR bytes of a message (an rclpy message or a dict) by the bag codec
+    (rotor_avc.bag.cdr), from which the hot path fills its messages: the very bytes the
+    in-process recording writes (rotor_avc.recording), alignment padding zero and nothing after
+    the last field -- rclpy's ``serialize_message`` leaves the padding uninitialised and may
+    append bytes that a strict reader (rosbags) refuses."""
+    return CdrCodec(msg_type, _SPECS).encode(msg)
 
 
 def _vector_offset(data) -> int:
@@ -291,7 +309,7 @@ class LabelledBytes:
     def __init__(self, names):
         self.names = ("time_s",) + tuple(names)
         self.label = ",".join(self.names)
-        buf = serialize_message(Labelled(self.names).fill([0.0] * len(self.names)))
+        buf = template(_LABELLED, Labelled(self.names).fill([0.0] * len(self.names)))
         _, at, n = _labelled_layout(buf)
         self._buf = bytearray(buf[:at + 8 * n])      # without trailing bytes (see RotorBytes)
         self._values = np.frombuffer(self._buf, dtype="<f8", count=n, offset=at)
@@ -357,17 +375,15 @@ class Rotor:
 
 class RotorBytes:
     """``rotor/joint_state`` and ``/clock`` of :class:`Rotor` as serialised bytes (the hot path):
-    templates serialised once, ``fill`` writes stamp, angle and speed into them. rclpy's
-    ``serialize_message`` may leave bytes after the last field (4 for this JointState), which a
-    published message does not have and a strict reader (rosbags: at most 3) refuses: the
-    templates end at their last field."""
+    templates serialised once (:func:`template`), ``fill`` writes stamp, angle and speed into
+    them."""
 
     def __init__(self):
         joint, clock = Rotor().fill(0, 0.0, 0.0)
-        data = serialize_message(joint)
+        data = template(_JOINT_STATE, joint)
         _, (self._angle_at, _), (self._speed_at, _), end = _joint_state_blocks(data)
         self._joint = bytearray(data[:end])
-        self._clock = bytearray(serialize_message(clock)[:12])     # header, Time
+        self._clock = bytearray(template("rosgraph_msgs/msg/Clock", clock))
 
     def fill(self, time_ns: int, angle_rad: float, speed_rad_s: float) -> tuple[bytes, bytes]:
         sec_nsec = divmod(int(time_ns), _BILLION)
@@ -397,10 +413,14 @@ def diagnostics(time_ns: int, statuses) -> DiagnosticArray:
 def published_status(node) -> tuple:
     """The diagnostic status ``"<node>: published"`` with the messages ``node`` has published
     per topic (rotor_avc.nodes.taps), for :func:`diagnostics`: the publishers' side of a bag's
-    counts."""
+    counts. It is published on ``/diagnostics``, counts the message that carries it, and names
+    the process (``process``: host and process id), so a recorder does not count twice what it
+    counts itself in its own process."""
     from .taps import published_counts
+    counts = published_counts(node)
+    counts["/diagnostics"] = counts.get("/diagnostics", 0) + 1    # the array carrying this status
     return (f"{node.get_name()}{PUBLISHED_SUFFIX}", "ok", "messages published per topic",
-            published_counts(node))
+            {PROCESS_KEY: PROCESS_ID, **counts})
 
 
 def _fmt(value) -> str:

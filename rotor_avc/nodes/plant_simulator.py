@@ -139,7 +139,7 @@ class PlantSimulator(Node):
         self.observables = m.LabelledBytes(lay.names)
         self.pub_obs = taps.publisher(self, Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
-        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         responders = self.driven + (("balancer",) if self.p["balancer"] else ())
         self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
                                self.p["resend_after_s"])

@@ -130,7 +130,7 @@ class Recorder(Node):
         self._warned_remote: set[str] = set()
         self._last_progress, self._progress_at = None, 0.0
         self.exit_requested = False
-        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.pub_progress = taps.publisher(self, Float64MultiArray, self.progress_topic,
                                            m.LOCKSTEP_QOS)
         self._unwatch = None
@@ -181,15 +181,21 @@ class Recorder(Node):
                 continue
             if name in self._subs:
                 continue
+            infos = self.get_publishers_info_by_topic(name)
+            if not infos:                # seen through a subscriber only: wait for a publisher,
+                continue                 # whose QoS decides the subscription's
             ch = self._channel(name, types)
             if ch is None:
                 continue
             pkg, _, cls_name = ch.msg_type.split("/")
             cls = getattr(importlib.import_module(f"{pkg}.msg"), cls_name)
-            events = SubscriptionEventCallbacks(message_lost=lambda info, c=ch: self._lost(c, info))
-            infos = self.get_publishers_info_by_topic(name)
-            late = infos and all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                                 for i in infos)
+            events = SubscriptionEventCallbacks(
+                message_lost=lambda info, c=ch: self._lost(c, info),
+                incompatible_qos=lambda info, n=name: self.get_logger().error(
+                    f"{n}: a publisher's QoS is incompatible with the recording subscription "
+                    f"({info.last_policy_kind}): its messages are not recorded"))
+            late = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                       for i in infos)
             self._subs[name] = self.create_subscription(
                 cls, name, ch.queue.append, RECORD_QOS_LATE_JOINER if late else RECORD_QOS,
                 raw=True, event_callbacks=events)
@@ -267,6 +273,8 @@ class Recorder(Node):
             for st in msg.status:
                 if not st.name.endswith(m.PUBLISHED_SUFFIX):
                     continue
+                if any(kv.key == m.PROCESS_KEY and kv.value == m.PROCESS_ID for kv in st.values):
+                    continue                 # this process: counted from its publishers
                 node = st.name[:-len(m.PUBLISHED_SUFFIX)]
                 for kv in st.values:
                     ch = self.channels.get(kv.key)
@@ -276,15 +284,15 @@ class Recorder(Node):
 
     def published(self) -> dict[str, int | None]:
         """Messages published per topic, from the publishers' side: by the counted publishers of
-        this process since the recorder was created, where the topic has had any, else the
-        counts its nodes reported on /diagnostics; None when no publisher reported."""
+        this process since the recorder was created, plus what the nodes of other processes
+        reported on /diagnostics; None when no publisher reported."""
         local = {t: n - self._baseline.get(t, 0) for t, n in taps.process_counts().items()}
         out = {}
         for name, ch in self.channels.items():
-            if name in local:
-                out[name] = local[name]
+            if name in local or ch.published_remote:
+                out[name] = local.get(name, 0) + sum(ch.published_remote.values())
             else:
-                out[name] = sum(ch.published_remote.values()) if ch.published_remote else None
+                out[name] = None
         return out
 
     def losses(self) -> dict[str, int]:

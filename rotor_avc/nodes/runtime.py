@@ -157,13 +157,18 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         if node is not None:
             if rclpy.ok():
                 _final_diagnostics(node)
-            close = getattr(node, "close", None)
-            if close is not None:
-                close()
-            node.destroy_node()
+            close_node(node)
         if rclpy.ok():
             rclpy.shutdown()
     return status
+
+
+def close_node(node: Node) -> None:
+    """Finish what the node has open (its ``close()``, e.g. a bag) and destroy it."""
+    close = getattr(node, "close", None)
+    if close is not None:
+        close()
+    node.destroy_node()
 
 
 def _final_diagnostics(node: Node) -> None:

@@ -53,7 +53,7 @@ class SynchronousController(Node):
                 act_id, "actuator_force", ns), m.LOCKSTEP_QOS), force))
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
                                  m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, type(m.diagnostics(0, [])), "/diagnostics", 10)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.last_stamp = -1
