@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from .analysis.closed_loop import ClosedLoop
+from .closed_loop.loop import ClosedLoop
 from .config import Section, load_config
 from .control.spec import ContinuousController, controller_from_config
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
+from .settings import AnalysisSettings, ControlSettings, analysis_settings, control_settings
 
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
@@ -30,19 +31,23 @@ RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
 
 @dataclass(frozen=True, eq=False)
 class Machine:
-    """A plant with the continuous controllers its config gives, and the config itself."""
+    """A plant with the continuous controllers its config gives, the config itself and its
+    validated ``analysis:`` and ``control:`` settings (rotor_avc.settings)."""
 
     config: Section
     plant: LinearPlant
     controllers: dict[str, ContinuousController]
+    analysis: AnalysisSettings = field(init=False)
+    control: ControlSettings = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "analysis", analysis_settings(self.config))
+        object.__setattr__(self, "control", control_settings(self.config))
 
     @property
     def loop(self) -> ClosedLoop:
         return ClosedLoop(self.plant, self.controllers)
 
-    @property
-    def analysis(self) -> Section:
-        return self.config.section("analysis", {})
 
 
 def build_plant(cfg: Section) -> LinearPlant:

@@ -123,7 +123,7 @@ def test_scenario_feedforward_in_the_lockstep_loop(tmp_path, rpm):
     """The same check through a scenario (``simulation.feedforward``) and the in-process lockstep
     loop that the ROS graph reproduces: shaft RMS within 1 % of the frequency domain."""
     from rotor_avc.config import find_config
-    from rotor_avc.sim.scenario import load_scenario
+    from rotor_avc.scenario import load_scenario
     path = tmp_path / "ff.yaml"
     path.write_text(f"include: {find_config('scenario_active_bearing')}\n"
                     f"simulation: {{speed: {{type: constant, speed_hz: {rpm / 60}}}, "

@@ -7,7 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.stability_threshold import StateMatrices
 from rotor_avc.config import Section, load_config
 from rotor_avc.errors import ConfigError

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.stability_study import (machine_threshold, with_overrides,
                                                 with_variants)
 from rotor_avc.analysis.stability_threshold import (StateMatrices, first_crossing,

@@ -32,7 +32,7 @@ from ..errors import ModelError
 from ..models.active_bearing import COORDS, PLANES, plane_mask
 from ..models.piezo import PiezoStack
 from ..models.plant import LinearPlant
-from .closed_loop import ClosedLoop
+from ..closed_loop.loop import ClosedLoop
 from .insertion_loss import first_sign_change, insertion_loss_db, phasor_rms
 
 METHODS = ("paper", "exact")

@@ -49,15 +49,16 @@ def run(args) -> int:
     piezo = piezo_from_config(cfg)
     method = feedforward_method(cfg)
     ana = machine.analysis
-    cases_hz = np.array(ana.number_list("cases_rpm", min_length=1)) / 60.0
-    if np.any(cases_hz <= 0):
-        raise ana.error("cases_rpm", "speeds must be > 0", fix="give positive speeds in rpm")
+    required = {"cases_rpm": ana.cases_rpm} if args.speed_hz is not None else {
+        "cases_rpm": ana.cases_rpm, "il_speed_hz": ana.il_speed_hz}
+    for key, value in required.items():
+        if value is None:
+            raise cfg.section("analysis", {}).error(key, "missing", fix=f"add `{key}:` to analysis")
+    cases_hz = np.array(ana.cases_rpm) / 60.0
     sweep_hz = args.speed_hz
     if sweep_hz is None:
-        rng = ana.section("il_speed_hz")
-        start = rng.number("start", positive=True, unit="Hz")
-        sweep_hz = np.linspace(start, rng.number("stop", minimum=start, unit="Hz"),
-                               rng.integer("n", minimum=2))
+        rng = ana.il_speed_hz
+        sweep_hz = np.linspace(rng.start, rng.stop, rng.n)
     cases = {m: solve_feedforward(plant, TWO_PI * cases_hz, m, u) for m in METHODS}
     sweep = {m: solve_feedforward(plant, TWO_PI * sweep_hz, m, u) for m in METHODS}
     chosen = cases[method]

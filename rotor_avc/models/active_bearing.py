@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import Section
+from ..settings import damping_floor_rad_s
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 PLANES = ("y", "x")
@@ -202,7 +203,6 @@ def build(cfg: Section) -> LinearPlant:
 
     actuators = tuple(Actuator(a, basis(f"eps_ac_{a[0]}_{a[1]}"), basis(f"eps_bh_{a[0]}_{a[1]}"), a[0])
                       for a in ACTUATOR_IDS)
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
         name=cfg.string("name", "active_bearing"),
         coords=COORDS,
@@ -211,6 +211,6 @@ def build(cfg: Section) -> LinearPlant:
         actuators=actuators,
         excitations=(Excitation("unbalance", "kg*m", p2),),
         outputs=tuple(outputs),
-        damping_floor_rad_s=2 * np.pi * floor,
+        damping_floor_rad_s=damping_floor_rad_s(cfg),
         config=cfg.data,
     )

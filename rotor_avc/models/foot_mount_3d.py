@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import Section
+from ..settings import damping_floor_rad_s
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 FEET = ("DL", "DR", "NL", "NR")
@@ -117,9 +118,8 @@ def build(cfg: Section) -> LinearPlant:
                         fix="set every foot to `none` or use `mounting: elements`")
     elements_sec = cfg.section("elements", {})
     elements_sec.check_keys(("actuator", "stiff_element"))
-    elements = {}
-    for kind in set(mounts.values()) - {"none"}:
-        elements[kind] = _element(elements_sec.section(kind))
+    elements = {kind: _element(elements_sec.section(kind))     # every one given is validated
+                for kind in set(elements_sec.keys()) | (set(mounts.values()) - {"none"})}
 
     rows = foot_kinematic_rows(a_D, a_N, b_L, b_R, h)
     n = 18
@@ -184,7 +184,6 @@ def build(cfg: Section) -> LinearPlant:
         out_rows = [(name, r @ T) for name, r in out_rows]
         sensor = {foot: r @ T for foot, r in sensor.items()}
         coords = MACHINE_COORDS
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
         name=cfg.string("name", "foot_mount_3d"),
         coords=coords,
@@ -193,7 +192,7 @@ def build(cfg: Section) -> LinearPlant:
         actuators=tuple(Actuator(foot, P, sensor[foot], "z") for foot, P in actuators),
         excitations=(Excitation("static", "kg*m", p_e), Excitation("moment", "kg*m^2", p_alpha)),
         outputs=tuple(Output(name, r, 1, "m/s") for name, r in out_rows),
-        damping_floor_rad_s=2 * np.pi * floor,
+        damping_floor_rad_s=damping_floor_rad_s(cfg),
         config=cfg.data,
         force_points=tuple((foot, "z") for foot in FEET),
     )

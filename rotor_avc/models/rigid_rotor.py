@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import Section
+from ..settings import damping_floor_rad_s
 from .plant import Excitation, LinearPlant, Output
 
 COORDS = ("R_X", "R_Z", "theta", "psi")
@@ -121,4 +122,4 @@ def build(cfg: Section) -> LinearPlant:
         circulatory=np.zeros((4, 4)), actuators=(),
         excitations=(Excitation("static", "kg*m", np.array([1.0, 1j, 0, 0])),
                      Excitation("moment", "kg*m^2", np.array([0, 0, 1j, -1.0]))),
-        outputs=tuple(outputs), damping_floor_rad_s=1.0, config=cfg.data)
+        outputs=tuple(outputs), damping_floor_rad_s=damping_floor_rad_s(cfg), config=cfg.data)

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import Section
+from ..settings import damping_floor_rad_s
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 COORDS = ("z_s", "z_w", "y_s", "y_w", "phi_s", "z_v", "z_b", "y_v", "y_b")
@@ -176,7 +177,6 @@ def build(cfg: Section) -> LinearPlant:
             actuators.append(Actuator(fid, row, row, "z"))
         outputs += [Output("foot_ay", foot_y, 2, "m/s^2"), Output("foot_vy", foot_y, 1, "m/s")]
     ix = np.ix_(keep, keep)
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
         name=cfg.string("name", "roller_bearing_rotor"),
         coords=tuple(COORDS[i] for i in keep),
@@ -187,6 +187,6 @@ def build(cfg: Section) -> LinearPlant:
                         for a in actuators),
         excitations=(Excitation("unbalance", "kg*m", unbalance[keep]),),
         outputs=tuple(Output(o.name, o.row[keep], o.order, o.unit) for o in outputs),
-        damping_floor_rad_s=2 * np.pi * floor,
+        damping_floor_rad_s=damping_floor_rad_s(cfg),
         config=cfg.data,
     )

@@ -52,6 +52,7 @@ import math
 import numpy as np
 
 from ..config import Section
+from ..settings import damping_floor_rad_s
 from ..errors import ModelError
 from .journal_bearing import JournalBearing, Oil, coefficient_table
 from .plant import Actuator, Excitation, LinearPlant, Output
@@ -274,10 +275,9 @@ def build(cfg: Section) -> LinearPlant:
     outputs = [Output(f"bearing_v{d}", _e((f"{d}_b", 1.0)).real, 1, "m/s") for d in ("z", "y")]
     outputs += [Output(f"foundation_{side}_v{d}", _e((f"{d}_f{side}", 1.0)).real, 1, "m/s")
                 for side in SIDES for d in ("z", "y")]
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
         name=cfg.string("name", "sleeve_bearing_motor"), coords=COORDS,
         mass=M, stiffness=C, loss_damping=D_eta, viscous_damping=np.zeros((n, n)),
         gyroscopic=np.zeros((n, n)), circulatory=N_eta, actuators=tuple(actuators),
-        excitations=excitations, outputs=tuple(outputs), damping_floor_rad_s=2 * np.pi * floor,
+        excitations=excitations, outputs=tuple(outputs), damping_floor_rad_s=damping_floor_rad_s(cfg),
         speed_terms=speed_terms, config=cfg.data)

@@ -26,7 +26,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
+from ..scenario import load_scenario
 from .runtime import make_executor
 
 

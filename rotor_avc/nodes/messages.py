@@ -9,8 +9,9 @@ velocity, that signal too. Forces: ``foot/<id>/actuator_force`` (geometry_msgs/W
 ``wrench.force``), stamped with the measurement they answer.
 
 Every message of the lockstep loop travels as serialised CDR bytes (raw publishers and
-subscriptions): the nodes fill a template that rclpy serialised once and read the fields they need
-from the bytes -- foot measurements and forces (:class:`StampedVector`, :func:`stamped_value`),
+subscriptions): the nodes fill a template that rclpy serialised once, at the offsets the bags'
+codec finds in it (:class:`rotor_avc.bag.cdr.Layout`), and read the fields they need from the
+bytes with a bounds-checked cursor (malformed input from the network is a reported fault) -- foot measurements and forces (:class:`StampedVector`, :func:`stamped_value`),
 ``rotor/joint_state`` and ``/clock`` (:class:`RotorBytes`, :func:`joint_state`), the labelled
 arrays (:class:`LabelledBytes`, :func:`labelled_array`). These are the same messages on the wire:
 subscribers of the typed messages, the recorder and the bag tools see no difference. rclpy's
@@ -32,8 +33,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from ..bag.msgdefs import DEFINITIONS
-from ..bag.topics import NAMESPACE, topic  # noqa: F401  (re-exported for the nodes)
+from ..bag.cdr import CdrCodec, Layout
+from ..bag.msgdefs import DEFINITIONS, known_specs
+from ..bag.topics import FOOT_SIGNALS, NAMESPACE, foot_topic, topic  # noqa: F401  (re-exported)
 
 #: lockstep traffic: reliable, deep enough that a burst is never dropped
 LOCKSTEP_QOS = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE,
@@ -46,12 +48,17 @@ _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _F64 = struct.Struct("<d")
 _CDR_LE = 1                     # second byte of the encapsulation header 00 01 00 00
+#: the Vector3 (Point) field that carries the value of each stamped kind
+VALUE_FIELDS = {**FOOT_SIGNALS, "actuator_force": "wrench.force"}
+_SPECS = known_specs()
 
 
-def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
-    """``/<ns>/foot/<id>/<kind>`` with kind acceleration, velocity, displacement or
-    actuator_force."""
-    return topic(f"foot/{foot_id}/{kind}", namespace)
+def _template(msg, type_name: str) -> tuple[bytes, Layout]:
+    """A message serialised once by rclpy and the byte offsets of its fields, found by the
+    bags' codec (:meth:`rotor_avc.bag.cdr.CdrCodec.layout`); ``Layout.end`` is the byte after
+    its last field."""
+    data = serialize_message(msg)
+    return data, CdrCodec(type_name, _SPECS).layout(data)
 
 
 def set_stamp(stamp: Time, time_ns: int) -> None:
@@ -95,11 +102,13 @@ class StampedVector:
         msg = STAMPED_TYPES[kind]()
         msg.header.frame_id = f"foot_{foot_id}"
         self.kind, self.foot_id, self.axis = kind, foot_id, axis
-        self._buf = bytearray(serialize_message(msg))
-        self._value_at = _vector_offset(self._buf) + 8 * "xyz".index(axis)
+        data, layout = _template(msg, f"geometry_msgs/msg/{STAMPED_TYPES[kind].__name__}")
+        self._buf = bytearray(data)
+        self._stamp_at = layout.leaves["header.stamp.sec"][0]
+        self._value_at = layout.leaves[f"{VALUE_FIELDS[kind]}.{axis}"][0]
 
     def fill(self, time_ns: int, value: float) -> bytes:
-        _STAMP.pack_into(self._buf, 4, *divmod(int(time_ns), _BILLION))
+        _STAMP.pack_into(self._buf, self._stamp_at, *divmod(int(time_ns), _BILLION))
         _F64.pack_into(self._buf, self._value_at, value)
         return bytes(self._buf)
 
@@ -209,10 +218,9 @@ _JOINT_STATE = "sensor_msgs/msg/JointState"
 _LABELLED = "std_msgs/msg/Float64MultiArray"
 
 
-def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int], int]:
-    """``(stamp ns, (offset, count) of position, of velocity, end)`` of a serialised JointState:
-    header (stamp, frame_id), name (strings), position, velocity, effort (float64 sequences);
-    ``end``: the byte after the last field."""
+def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int]]:
+    """``(stamp ns, (offset, count) of position, of velocity)`` of a serialised JointState:
+    header (stamp, frame_id), name (strings), position, velocity, effort (float64 sequences)."""
     r = _Cdr(data, _JOINT_STATE)
     stamp = r.stamp_ns()
     r.string("header.frame_id")
@@ -221,14 +229,14 @@ def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int], in
     position = r.f64_block("position")
     velocity = r.f64_block("velocity")
     r.f64_block("effort")
-    return stamp, position, velocity, r.pos
+    return stamp, position, velocity
 
 
 def joint_state(data) -> tuple[int, tuple[float, ...], tuple[float, ...]]:
     """``(stamp in ns, position, velocity)`` of a serialised sensor_msgs/JointState (the
     ``rotor/joint_state`` of :class:`RotorBytes` or any other); :class:`MessageError` for bytes
     that are not one."""
-    stamp, (p_at, n_p), (v_at, n_v), _ = _joint_state_blocks(data)
+    stamp, (p_at, n_p), (v_at, n_v) = _joint_state_blocks(data)
     return stamp, _float64s(n_p).unpack_from(data, p_at), _float64s(n_v).unpack_from(data, v_at)
 
 
@@ -278,9 +286,9 @@ class LabelledBytes:
     def __init__(self, names):
         self.names = ("time_s",) + tuple(names)
         self.label = ",".join(self.names)
-        buf = serialize_message(Labelled(self.names).fill([0.0] * len(self.names)))
-        _, at, n = _labelled_layout(buf)
-        self._buf = bytearray(buf[:at + 8 * n])      # without trailing bytes (see RotorBytes)
+        data, layout = _template(Labelled(self.names).fill([0.0] * len(self.names)), _LABELLED)
+        at, _, n, _ = layout.leaves["data"]
+        self._buf = bytearray(data[:layout.end])     # without trailing bytes (see RotorBytes)
         self._values = np.frombuffer(self._buf, dtype="<f8", count=n, offset=at)
 
     def fill(self, time_s: float, values) -> bytes:
@@ -351,10 +359,12 @@ class RotorBytes:
 
     def __init__(self):
         joint, clock = Rotor().fill(0, 0.0, 0.0)
-        data = serialize_message(joint)
-        _, (self._angle_at, _), (self._speed_at, _), end = _joint_state_blocks(data)
-        self._joint = bytearray(data[:end])
-        self._clock = bytearray(serialize_message(clock)[:12])     # header, Time
+        data, layout = _template(joint, _JOINT_STATE)
+        self._angle_at = layout.leaves["position"][0]
+        self._speed_at = layout.leaves["velocity"][0]
+        self._joint = bytearray(data[:layout.end])
+        data, layout = _template(clock, "rosgraph_msgs/msg/Clock")
+        self._clock = bytearray(data[:layout.end])
 
     def fill(self, time_ns: int, angle_rad: float, speed_rad_s: float) -> tuple[bytes, bytes]:
         sec_nsec = divmod(int(time_ns), _BILLION)

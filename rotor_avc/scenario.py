@@ -30,22 +30,21 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..balancing.loop_block import LoopBalancer
-from ..balancing.scenario import machine_setup
-from ..control.block import DEFAULT_SAMPLE_RATE_HZ, build_digital_controllers
-from ..errors import ModelError
-from ..machine import Machine, load_machine, machine_from_config
-from .broadband import BroadbandForce, broadband_from_config
-from .loop import INITIAL_STATES, run_loop
-from .propagator import DAMPING_RULES, DampingRule
-from .speed_profile import SpeedProfile, profile_from_config
-from .stepper import DEFAULT_GRID_TOL, PlantStepper
-from .timeseries import TimeSeries
+from .balancing.loop_block import LoopBalancer
+from .balancing.scenario import machine_setup
+from .control.block import build_digital_controllers
+from .errors import ModelError
+from .machine import Machine, load_machine, machine_from_config
+from .sim.broadband import BroadbandForce, broadband_from_config
+from .sim.loop import INITIAL_STATES, run_loop
+from .sim.propagator import DAMPING_RULES, DampingRule
+from .sim.speed_profile import SpeedProfile, profile_from_config
+from .sim.stepper import DEFAULT_GRID_TOL, PlantStepper
+from .sim.timeseries import TimeSeries
 
 SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
                    "feedforward",
                    "whirl_rad_s", "initial_state", "speed_grid_tol", "test_signal")
-DEFAULT_RELEVANT_MODES = 6
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,7 +98,7 @@ class Scenario:
         """The run's synchronous force generator (``simulation.feedforward``), or None."""
         if self.feedforward_method is None:
             return None
-        from ..analysis.active_bearing_ff import synchronous_generator
+        from .analysis.active_bearing_ff import synchronous_generator
         return synchronous_generator(self.machine.plant, self.sample_period_s,
                                      self.amplitudes.get("unbalance", 0j), self.feedforward_method)
 
@@ -120,8 +119,7 @@ class Scenario:
 def relevant_mode_hz(machine: Machine) -> float:
     """Highest of the first ``n_modes`` undamped natural frequencies at standstill (Hz)."""
     p = machine.plant
-    n_modes = machine.analysis.section("worst_case", {}).integer("n_modes", DEFAULT_RELEVANT_MODES,
-                                                                 minimum=1)
+    n_modes = machine.analysis.worst_case.n_modes
     w2 = scipy.linalg.eigh(p.stiffness, p.mass, eigvals_only=True)
     w = np.sqrt(np.clip(w2, 0.0, None))
     w = w[w > 1e-6 * max(w.max(), 1.0)]                  # rigid-body modes have no frequency
@@ -147,15 +145,15 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     cfg = machine.config
     sim = cfg.section("simulation")
     sim.check_keys(SIMULATION_KEYS)
-    control = cfg.section("control", {})
+    control = machine.control
     if sim.has("sample_rate_hz"):
         fs = sim.number("sample_rate_hz", positive=True, unit="Hz")
-        if control.has("sample_rate_hz") and control.number("sample_rate_hz") != fs:
+        if control.sample_rate_hz is not None and control.sample_rate_hz != fs:
             raise sim.error("sample_rate_hz", f"{fs:g} Hz differs from control.sample_rate_hz "
-                            f"{control.number('sample_rate_hz'):g} Hz; plant and controllers "
+                            f"{control.sample_rate_hz:g} Hz; plant and controllers "
                             "run in lockstep at one rate", fix="give one rate (or drop one key)")
     else:
-        fs = control.number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ, positive=True, unit="Hz")
+        fs = control.rate_hz
     try:
         profile = profile_from_config(sim.section("speed"))
     except ModelError as exc:
@@ -171,10 +169,10 @@ def scenario_from_machine(machine: Machine) -> Scenario:
         raise sim.error("duration_s", f"{duration:g} s is shorter than one sample at {fs:g} Hz",
                         fix="give a longer duration")
     f_max = profile.max_speed_rad_s / (2 * math.pi)
-    frf = cfg.section("analysis", {}).section("frf_speed_hz", {})
-    if frf.has("stop") and f_max > frf.number("stop") * (1 + 1e-12):
+    frf = machine.analysis.frf_speed_hz
+    if frf is not None and f_max > frf.stop * (1 + 1e-12):
         raise sim.error("speed", f"the profile reaches {f_max:g} Hz, beyond the model's range "
-                        f"0 .. {frf.number('stop'):g} Hz (analysis.frf_speed_hz.stop)",
+                        f"0 .. {frf.stop:g} Hz (analysis.frf_speed_hz.stop)",
                         fix="lower the speeds, or extend analysis.frf_speed_hz.stop if the "
                             "model holds there")
     if fs <= 2 * f_max:

@@ -1,0 +1,82 @@
+"""The import graph of rotor_avc (read with the standard library's ast, every import statement
+including those inside functions) has no cycle and no arrow against the layer order that
+docs/DESIGN.md documents."""
+import ast
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "rotor_avc"
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """module -> the rotor_avc modules it imports (``from pkg import mod`` counts as ``mod``)."""
+    files = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+    graph = {}
+    for name, path in files.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        targets = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                targets |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parent = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    base = ".".join(parent + ([node.module] if node.module else []))
+                subs = {f"{base}.{a.name}" for a in node.names} & files.keys()
+                targets |= subs or {base}
+        graph[name] = {t for t in targets if t in files and t != name}
+    return graph
+
+
+def documented_layers() -> list[str]:
+    """The rooms in docs/DESIGN.md's layer line, lowest first."""
+    text = (ROOT / "docs" / "DESIGN.md").read_text()
+    line = re.search(r"^Layers \(lowest first\): (.+)$", text, re.MULTILINE)
+    assert line, "docs/DESIGN.md lost its `Layers (lowest first): a → b → ...` line"
+    return [room.strip(" `.") for room in line.group(1).split("→")]
+
+
+def room(module: str) -> str:
+    parts = module.split(".")
+    return "rotor_avc" if len(parts) == 1 else parts[1]
+
+
+def test_layer_order_names_every_room_once():
+    layers = documented_layers()
+    rooms = {room(m) for m in import_graph()}
+    assert len(layers) == len(set(layers))
+    assert set(layers) == rooms, f"rooms not in the documented order: {rooms ^ set(layers)}"
+
+
+def test_no_import_points_up_the_layers():
+    rank = {name: i for i, name in enumerate(documented_layers())}
+    upward = sorted(f"{a} -> {b}" for a, targets in import_graph().items() for b in targets
+                    if rank[room(b)] > rank[room(a)])
+    assert not upward, "imports against the layer order:\n" + "\n".join(upward)
+
+
+def test_no_import_cycle():
+    graph = import_graph()
+    state, cycles = {}, []
+
+    def visit(node, stack):
+        state[node] = "open"
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == "open":
+                cycles.append(" -> ".join(stack[stack.index(nxt):] + [nxt]))
+            elif nxt not in state:
+                visit(nxt, stack + [nxt])
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
+
