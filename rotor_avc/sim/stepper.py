@@ -295,6 +295,11 @@ class PlantStepper:
         """``x_k = [q; q']`` (a copy)."""
         return self._v[self._lay.x].copy()
 
+    def set_state(self, x) -> None:
+        """Replace ``x_k`` (of the current sample ``k``): the next :meth:`step` advances from it.
+        The measurement ``y_k`` already returned is not recomputed."""
+        self._v[self._lay.x] = self._checked(x, self._N, "state")
+
     @property
     def forces_held(self) -> np.ndarray:
         """``u_{k-1}``, the forces held over the last interval (a copy)."""
