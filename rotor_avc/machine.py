@@ -20,6 +20,12 @@ MODELS = {
     "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
 }
 
+#: what a model module may declare in ``SUPPORTS``: seed 002's synchronous feed-forward
+#: (``simulation.feedforward``), seed 000's one-plane balancer on the machine's bearings
+#: (rotor_avc.balancing.scenario.machine_setup), seed 004's rigid-rotor balancer
+#: (``rigid_setup``)
+CAPABILITIES = ("feedforward", "plane_balancer", "rigid_balancer")
+
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``
 COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analysis",
                "simulation", "balancer")
@@ -48,6 +54,20 @@ class Machine:
     def loop(self) -> ClosedLoop:
         return ClosedLoop(self.plant, self.controllers)
 
+
+
+def model_supports(cfg: Section, capability: str) -> bool:
+    """Whether the config's model declares ``capability`` (one of :data:`CAPABILITIES`)."""
+    if capability not in CAPABILITIES:
+        raise ValueError(f"unknown capability {capability!r}; use one of {CAPABILITIES}")
+    module = importlib.import_module(MODELS[cfg.choice("model", MODELS)])
+    return capability in getattr(module, "SUPPORTS", ())
+
+
+def models_supporting(capability: str) -> list[str]:
+    """The ``model:`` names whose modules declare ``capability``."""
+    return [name for name, path in MODELS.items()
+            if capability in getattr(importlib.import_module(path), "SUPPORTS", ())]
 
 
 def build_plant(cfg: Section) -> LinearPlant:

@@ -34,7 +34,7 @@ from .balancing.loop_block import LoopBalancer
 from .balancing.scenario import machine_setup
 from .control.block import build_digital_controllers
 from .errors import ModelError
-from .machine import Machine, load_machine, machine_from_config
+from .machine import Machine, load_machine, machine_from_config, model_supports, models_supporting
 from .sim.broadband import BroadbandForce, broadband_from_config
 from .sim.loop import INITIAL_STATES, run_loop
 from .sim.propagator import DAMPING_RULES, DampingRule
@@ -219,9 +219,10 @@ def _feedforward_method(machine: Machine, sim) -> str | None:
     ff = sim.section("feedforward")
     ff.check_keys(("type", "method"))
     ff.choice("type", ("synchronous",))
-    if machine.config.string("model") != "active_bearing":
+    if not model_supports(machine.config, "feedforward"):
         raise ff.error("type", "the synchronous (1x) force generator is seed 002's feed-forward "
-                       "of the active-bearing rotor", fix="use it with model: active_bearing")
+                       "of the active-bearing rotor",
+                       fix="use it with model: " + ", ".join(models_supporting("feedforward")))
     overlap = sorted(set(machine.controllers))
     if overlap:
         raise ff.error("type", f"actuators {overlap} also have feedback controllers",

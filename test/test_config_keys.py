@@ -88,3 +88,15 @@ def test_readme_reference_is_generated_from_the_declarations():
     assert reference_markdown() in readme, (
         "README's configuration reference differs from rotor_avc.settings; regenerate it: "
         'python -c "from rotor_avc.settings import reference_markdown; print(reference_markdown())"')
+
+
+def test_a_capability_the_model_lacks_is_refused_naming_the_models_that_have_it():
+    sleeve = load_yaml(ROOT / "config" / "sleeve_bearing_motor.yaml")
+    sleeve["balancer"] = load_yaml(ROOT / "config" / "balancer_foot_mount.yaml")["balancer"]
+    with pytest.raises(ConfigError, match="balancer: model sleeve_bearing_motor has no one-plane.*"
+                                          "fix: use it with model: foot_mount_3d"):
+        machine_setup(machine_from_section(Section(sleeve, "", "sleeve")))
+    feet = load_yaml(ROOT / "config" / "scenario_case3_steady.yaml")
+    feet["simulation"]["feedforward"] = {"type": "synchronous"}
+    with pytest.raises(ConfigError, match="feedforward.type: .*fix: use it with model: active_bearing"):
+        scenario_from_machine(machine_from_section(Section(feet, "", "case3")))

@@ -10,7 +10,7 @@ excitation amplitudes ``{"static": c, "moment": j a c}`` of its plane (rotor_avc
 * The balancer block (estimator + law + supervisor, rotor_avc.balancing.block) runs every
   ``round(balancer.sample_period_s / T)`` plant samples; the correction follows the rate-limited
   actuator (rotor_avc.balancing.actuator) at the middle of the coming interval, as the
-  time-domain run-up does (rotor_avc.balancing.machine_runup).
+  time-domain run-up does (rotor_avc.balancing.time_domain_runup).
 * The angular acceleration is the backward difference of the measured speed (what a balancer
   with a speed encoder has), so the node and the in-process loop compute the same numbers.
 """

@@ -18,7 +18,7 @@ from ..balancing.quasi_steady import resonance_comparison, simulate_machine_runu
 from ..balancing.rigid_runup import simulate_rigid_runup
 from ..balancing.scenario import machine_setup, rigid_setup
 from ..config import load_config
-from ..machine import load_machine
+from ..machine import load_machine, model_supports
 from .common import nonnegative_float
 
 NAME = "balance"
@@ -39,7 +39,7 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     cfg = load_config(args.scenario)
     args.out.mkdir(parents=True, exist_ok=True)
-    if cfg.raw("model", None) == "rigid_rotor":
+    if model_supports(cfg, "rigid_balancer"):
         return _rigid(cfg, args)
     return _machine(load_machine(args.scenario), args)
 

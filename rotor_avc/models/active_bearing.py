@@ -50,6 +50,8 @@ LEVER_SIGN = {"y": -1.0, "x": 1.0}
 #: ``piezo`` and ``feedforward`` are read by :func:`unbalance_kg_m`, rotor_avc.models.piezo and
 #: rotor_avc.analysis.active_bearing_ff
 MODEL_KEYS = ("rotor", "unbalance", "active_bearings", "sensors", "piezo", "feedforward")
+#: what the machine built from this model supports (rotor_avc.machine.CAPABILITIES)
+SUPPORTS = ("feedforward",)
 PLANE_KEYS = ("actuator_mass_kg", "k_b_n_per_m", "c_b_n_s_per_m", "k_ac_n_per_m", "c_ac_n_s_per_m",
               "k_sp_n_per_m", "c_sp_n_s_per_m", "k_pre_n_per_m", "c_pre_n_s_per_m")
 

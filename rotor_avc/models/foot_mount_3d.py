@@ -36,6 +36,8 @@ COORDS = MACHINE_COORDS + tuple(f"{d}_f{f}" for d in DIRECTIONS for f in FEET)
 MOUNTS = ("actuator", "stiff_element", "none")
 #: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
 MODEL_KEYS = ("machine", "foundation", "mounting", "elements", "feet")
+#: what the machine built from this model supports (rotor_avc.machine.CAPABILITIES)
+SUPPORTS = ("plane_balancer",)
 
 
 def foundation_index(direction: str, foot: str) -> int:

@@ -36,6 +36,8 @@ from .plant import Excitation, LinearPlant, Output
 COORDS = ("R_X", "R_Z", "theta", "psi")
 #: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
 MODEL_KEYS = ("rotor", "bearings", "output")
+#: what the machine built from this model supports (rotor_avc.machine.CAPABILITIES)
+SUPPORTS = ("rigid_balancer",)
 
 
 @dataclass(frozen=True)
