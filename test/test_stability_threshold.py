@@ -13,7 +13,8 @@ from rotor_avc.analysis.stability_threshold import (StateMatrices, first_crossin
                                                     stability_threshold)
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
-from rotor_avc.models.roller_bearing_rotor import eq14_whirl_rad_s, read_params
+from rotor_avc.model_config.roller_bearing_rotor import read_params
+from rotor_avc.models.roller_bearing_rotor import eq14_whirl_rad_s
 
 RPM = 30.0 / math.pi
 

@@ -17,7 +17,8 @@ import numpy as np
 from ..config import Section
 from ..errors import ModelError
 from ..machine import Machine, model_supports, models_supporting
-from ..models.rigid_rotor import RigidRotor, rotor_from_config
+from ..model_config.rigid_rotor import rotor_from_config
+from ..models.rigid_rotor import RigidRotor
 from .actuator import BalancerActuator
 from .block import BalancerBlock
 from .influence import InfluenceTable, influence_table
