@@ -15,7 +15,7 @@ from .settings import AnalysisSettings, ControlSettings, analysis_settings, cont
 MODELS = {
     "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
     "roller_bearing_rotor": "rotor_avc.model_config.roller_bearing_rotor",
-    "active_bearing": "rotor_avc.models.active_bearing",
+    "active_bearing": "rotor_avc.model_config.active_bearing",
     "rigid_rotor": "rotor_avc.model_config.rigid_rotor",
     "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
 }

@@ -11,7 +11,7 @@ from rotor_avc.analysis.insertion_loss import phasor_rms, signal_rms
 from rotor_avc.control.synchronous import SynchronousForceGenerator
 from rotor_avc.errors import ModelError
 from rotor_avc.machine import load_machine
-from rotor_avc.models.active_bearing import unbalance_kg_m
+from rotor_avc.model_config.active_bearing import unbalance_kg_m
 from rotor_avc.sim.speed_profile import constant_speed
 from rotor_avc.sim.stepper import PlantStepper
 

@@ -11,8 +11,7 @@ from rotor_avc.balancing.scenario import machine_setup, rigid_setup
 from rotor_avc.config import Section, load_yaml
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import machine_from_section
-from rotor_avc.models.active_bearing import unbalance_kg_m
-from rotor_avc.models.piezo import piezo_from_config
+from rotor_avc.model_config.active_bearing import piezo_from_config, unbalance_kg_m
 from rotor_avc.scenario import scenario_from_machine
 from rotor_avc.settings import reference_markdown
 

@@ -14,8 +14,8 @@ from ..analysis.active_bearing_ff import (METHODS, feedforward_method, il_zero_c
                                           saturated_forces, saturation_onset, side_table,
                                           solve_feedforward)
 from ..machine import load_machine
-from ..models.active_bearing import PLANES, unbalance_kg_m
-from ..models.piezo import piezo_from_config
+from ..model_config.active_bearing import piezo_from_config, unbalance_kg_m
+from ..models.active_bearing import PLANES
 from ..reports.active_bearing_files import write_active_bearing_files
 from .common import speed_range_hz
 
