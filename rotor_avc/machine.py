@@ -13,7 +13,7 @@ from .settings import AnalysisSettings, ControlSettings, analysis_settings, cont
 
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
-    "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
+    "foot_mount_3d": "rotor_avc.model_config.foot_mount_3d",
     "roller_bearing_rotor": "rotor_avc.model_config.roller_bearing_rotor",
     "active_bearing": "rotor_avc.model_config.active_bearing",
     "rigid_rotor": "rotor_avc.model_config.rigid_rotor",
