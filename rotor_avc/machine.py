@@ -17,7 +17,7 @@ MODELS = {
     "roller_bearing_rotor": "rotor_avc.model_config.roller_bearing_rotor",
     "active_bearing": "rotor_avc.model_config.active_bearing",
     "rigid_rotor": "rotor_avc.model_config.rigid_rotor",
-    "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
+    "sleeve_bearing_motor": "rotor_avc.model_config.sleeve_bearing_motor",
 }
 
 #: what a model module may declare in ``SUPPORTS``: seed 002's synchronous feed-forward

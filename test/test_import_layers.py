@@ -80,3 +80,22 @@ def test_no_import_cycle():
             visit(node, [node])
     assert not cycles, "import cycles:\n" + "\n".join(cycles)
 
+
+
+def test_models_import_only_numpy_scipy_and_their_errors():
+    """The physics builders take numbers: rotor_avc.models imports numpy, scipy, the standard
+    library, its own room and rotor_avc.errors -- no config views (those are model_config/)."""
+    stdlib = {"__future__", "dataclasses", "functools", "math", "typing"}
+    found = set()
+    for path in (PACKAGE / "models").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found |= {(path.name, a.name) for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                name = "rotor_avc." + "models." * (node.level == 1) + (node.module or "") \
+                    if node.level else node.module
+                found.add((path.name, name))
+    wrong = sorted(f"{file}: {name}" for file, name in found
+                   if name.split(".")[0] not in stdlib | {"numpy", "scipy"}
+                   and not name.startswith(("rotor_avc.models.", "rotor_avc.errors")))
+    assert not wrong, "models/ imports beyond numpy/scipy:\n" + "\n".join(wrong)

@@ -87,9 +87,9 @@ def build(rot: RigidRotor, name: str, damping_floor_rad_s: float, config: dict |
     if rot.gyroscopic:
         G1[2, 3], G1[3, 2] = -rot.I_p, rot.I_p
     outputs = []
-    for name, y in (("output", rot.output_axial_m), ("bearing_A", -L / 2), ("bearing_B", L / 2)):
+    for point, y in (("output", rot.output_axial_m), ("bearing_A", -L / 2), ("bearing_B", L / 2)):
         row_x, row_z = axis_point_row(y)
-        outputs += [Output(f"{name}_x", row_x, 0, "m"), Output(f"{name}_z", row_z, 0, "m")]
+        outputs += [Output(f"{point}_x", row_x, 0, "m"), Output(f"{point}_z", row_z, 0, "m")]
     return LinearPlant(
         name=name, coords=COORDS, mass=M, stiffness=C,
         loss_damping=np.zeros((4, 4)), viscous_damping=D_v, gyroscopic=G1,
