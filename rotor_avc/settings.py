@@ -1,4 +1,4 @@
-"""Typed, frozen settings of a machine config's ``analysis:`` and ``control:`` sections.
+"""Typed, frozen settings of a config's ``analysis:``, ``control:`` and ``simulation:`` sections.
 
 Each section is a frozen dataclass whose fields declare, once, their type, default, bounds, unit
 and meaning (:func:`setting`). :func:`read_settings` validates a YAML section into one in a
@@ -22,6 +22,11 @@ DEFAULT_SAMPLE_RATE_HZ = 5000.0
 POLE_METHODS = ("worst_case", "whirl_iteration")
 DISCRETIZATION_METHODS = ("tustin", "zoh", "foh")
 STABILITY_CONTROLLERS = ("continuous", "sampled")
+DAMPING_RULES = ("speed", "whirl")
+INITIAL_STATES = ("rest", "steady_state")
+FEEDFORWARD_METHODS = ("paper", "exact")
+#: relative accuracy of the variable-speed plant (rotor_avc.sim.propagator)
+DEFAULT_GRID_TOL = 1e-5
 
 
 def setting(default=dataclasses.MISSING, doc: str = "", *, unit: str = "",
@@ -172,8 +177,51 @@ class ControlSettings:
                             f"{self.method})", fix="drop prewarp_hz or set method: tustin")
 
 
+@dataclass(frozen=True)
+class FeedforwardRun:
+    """``simulation.feedforward``: seed 002's 1x force generator in the loop."""
+
+    type: str = setting(doc="`synchronous` (the only kind)", choices=("synchronous",))
+    method: str | None = setting(None, "`paper` or `exact` (default: the machine's "
+                                 "`feedforward.method`)", choices=FEEDFORWARD_METHODS)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimulationSettings:
+    """``simulation:`` of a scenario: the in-process loop's (and the ROS graph's) run."""
+
+    sample_rate_hz: float | None = setting(None, "plant and controllers in lockstep (default: "
+                                           "control.sample_rate_hz)", unit="Hz", positive=True)
+    duration_s: float | None = setting(None, "run length (default: the speed profile's)",
+                                       unit="s", positive=True)
+    speed: dict = setting(doc="speed profile (`rotor_avc/sim/speed_profile.py`)")
+    unbalance: dict | None = setting(None, "per excitation of the plant: `{magnitude, phase_deg}` "
+                                     "in the excitation's unit")
+    damping_at: str = setting("speed", "w_F = max(Omega, floor) (`speed`) or frozen at "
+                              "whirl_rad_s (`whirl`)", choices=DAMPING_RULES)
+    whirl_rad_s: float | None = setting(None, "the frozen w_F of `damping_at: whirl`",
+                                        unit="rad/s", positive=True)
+    initial_state: str = setting("rest", "`rest`, or `steady_state`: the sampled loop's periodic "
+                                 "solution", choices=INITIAL_STATES)
+    speed_grid_tol: float = setting(DEFAULT_GRID_TOL, "accuracy of the variable-speed plant",
+                                    positive=True, maximum=0.1)
+    balancer: bool = setting(False, "run the config's `balancer:` in the loop")
+    feedforward: FeedforwardRun | None = setting(None, "seed 002's 1x feed-forward")
+    test_signal: dict | None = setting(None, "broadband test force: actuator, kind (white or "
+                                       "chirp), rms_n, band_hz, seed, sweep_s "
+                                       "(`rotor_avc/sim/broadband.py`)")
+
+    def check(self, sec: Section) -> None:
+        if self.damping_at == "whirl" and self.whirl_rad_s is None:
+            sec.raw("whirl_rad_s")                               # raises "missing" with the fix
+        if self.damping_at != "whirl" and self.whirl_rad_s is not None:
+            raise sec.error("whirl_rad_s", "only used with `damping_at: whirl`",
+                            fix="drop whirl_rad_s or set damping_at: whirl")
+
+
 #: the sections declared here, in the order of the reference
-SECTIONS = {"analysis": AnalysisSettings, "control": ControlSettings}
+SECTIONS = {"analysis": AnalysisSettings, "control": ControlSettings,
+            "simulation": SimulationSettings}
 
 
 def analysis_settings(cfg: Section) -> AnalysisSettings:
@@ -217,6 +265,8 @@ def _read_value(sec: Section, key: str, tp, meta: dict):
                           minimum=meta["minimum"], maximum=meta["maximum"], unit=meta["unit"])
     if kind is int:
         return sec.integer(key, minimum=meta["minimum"], maximum=meta["maximum"])
+    if kind is dict:
+        return sec.section(key).data
     if kind is bool:
         if not isinstance(value, bool):
             raise sec.error(key, f"must be true or false (got {value!r})")
@@ -258,8 +308,10 @@ def _type_name(tp, meta: dict) -> str:
             names.append(" \\| ".join(f"`{c}`" for c in meta["choices"]))
         elif typing.get_origin(t) is tuple:
             names.append(f"list of {typing.get_args(t)[0].__name__}")
+        elif t is dict or _settings_class(t) is not None:
+            names.append("mapping")
         else:
-            names.append(t.__name__ if _settings_class(t) is None else "mapping")
+            names.append(t.__name__)
     unit = f" [{meta['unit']}]" if meta["unit"] else ""
     return " or ".join(names) + unit
 
@@ -279,6 +331,8 @@ def _rows(cls, prefix: str):
             default = "required"
         elif default is None:
             default = "none"
+        elif isinstance(default, bool):
+            default = f"`{str(default).lower()}`"
         else:
             default = f"`{list(default) if isinstance(default, tuple) else default}`"
         yield path, _type_name(hints[f.name], f.metadata), default, f.metadata["doc"]

@@ -28,6 +28,7 @@ from ..config import Section
 from ..errors import ConfigError
 from ..machine import MODELS, Machine, machine_from_section
 from ..settings import ThresholdSettings, analysis_settings
+from .sampled_loop import machine_sampled_loop
 from .stability_threshold import ThresholdResult, stability_threshold
 
 RAD_S_PER_RPM = math.pi / 30.0
@@ -103,8 +104,6 @@ def stability_loop(machine: Machine, settings: ThresholdSettings):
     ``controller: sampled`` the sampled loop of the digital controllers."""
     if settings.controller == "continuous" or not machine.controllers:
         return machine.loop
-    from .sampled_loop import machine_sampled_loop       # (its import chain reaches this module)
-
     return machine_sampled_loop(machine)
 
 

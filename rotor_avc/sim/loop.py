@@ -25,11 +25,11 @@ import numpy as np
 from .. import __version__
 from ..blocks import Balancer, LoopSample, Synchronous
 from ..errors import ModelError
+from ..settings import INITIAL_STATES
 from .steady_state import start_in_steady_state
 from .stepper import PlantStepper
 from .timeseries import TimeSeries
 
-INITIAL_STATES = ("rest", "steady_state")
 
 
 # -- per-step logic (shared with the ROS nodes) ---------------------------------------------------

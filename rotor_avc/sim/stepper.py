@@ -50,6 +50,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..models.plant import LinearPlant
+from ..settings import DEFAULT_GRID_TOL
 from .broadband import BroadbandForce
 from .propagator import (DampingRule, PropagatorTable, basis_coefficients, max_node_spacing,
                          speed_nodes)
@@ -58,7 +59,6 @@ from .speed_profile import SpeedProfile
 #: samples whose speed, angle and node lookups are precomputed at once
 CHUNK = 4096
 MEASURE_KINDS = (("d", 0), ("v", 1), ("a", 2))
-DEFAULT_GRID_TOL = 1e-5
 
 
 class MeasurementLayout:
