@@ -24,7 +24,8 @@ setup(
         "PyYAML>=6",
         "matplotlib>=3.7",
         "mcap>=1.1",
-        "zstandard",
+        "zstandard",           # imported by rotor_avc.bag (also a dependency of mcap)
+        "lz4",                 # imported by rotor_avc.bag.mcap_writer (also one of mcap)
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)

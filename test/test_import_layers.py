@@ -3,6 +3,7 @@ including those inside functions) has no cycle and no arrow against the layer or
 docs/DESIGN.md documents."""
 import ast
 import re
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,3 +100,25 @@ def test_models_import_only_numpy_scipy_and_their_errors():
                    if name.split(".")[0] not in stdlib | {"numpy", "scipy"}
                    and not name.startswith(("rotor_avc.models.", "rotor_avc.errors")))
     assert not wrong, "models/ imports beyond numpy/scipy:\n" + "\n".join(wrong)
+
+
+def test_runtime_dependencies_are_what_runtime_code_imports():
+    """install_requires lists exactly the third-party packages rotor_avc imports (ROS 2 comes
+    from the distribution or the `ros` extra; the test-only packages are in the `test` extra)."""
+    ros = {"rclpy", "rcl_interfaces", "builtin_interfaces", "diagnostic_msgs", "geometry_msgs",
+           "rosgraph_msgs", "sensor_msgs", "std_msgs"}
+    distribution = {"yaml": "PyYAML"}                  # import name -> PyPI name, where they differ
+    imported = set()
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                imported |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                imported.add(node.module.split(".")[0])
+    third_party = imported - set(sys.stdlib_module_names) - ros - {"rotor_avc"}
+    setup = ast.parse((ROOT / "setup.py").read_text())
+    call = next(n for n in ast.walk(setup) if isinstance(n, ast.Call)
+                and getattr(n.func, "id", "") == "setup")
+    requires = next(k.value for k in call.keywords if k.arg == "install_requires")
+    names = {re.split(r"[<>=\[ ]", ast.literal_eval(e))[0] for e in requires.elts} - {"setuptools"}
+    assert {distribution.get(m, m) for m in third_party} == names
