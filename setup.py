@@ -24,12 +24,14 @@ setup(
         "PyYAML>=6",
         "matplotlib>=3.7",
         "mcap>=1.1",
-        "mcap-ros2-support>=0.5",
+        "zstandard",           # imported by rotor_avc.bag (also a dependency of mcap)
+        "lz4",                 # imported by rotor_avc.bag.mcap_writer (also one of mcap)
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
-        "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "control>=0.10", "catkin_pkg",
+        "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "mcap-ros2-support>=0.5",
+                 "control>=0.10", "catkin_pkg",
                  "colcon-core", "colcon-ros", "colcon-python-setup-py"],
     },
     zip_safe=True,

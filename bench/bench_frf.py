@@ -1,6 +1,6 @@
 """Benchmark: 2,000-speed closed-loop unbalance FRF of the seed-000 machine (case 3).
 
-Ours: one batched dynamic-stiffness solve over all speeds (rotor_avc.analysis.frf).
+Ours: one batched dynamic-stiffness solve over all speeds (rotor_avc.closed_loop.frf).
 Baseline, same run: python-control's ``frequency_response`` on the same closed-loop system,
 rebuilt at every speed (D = D_eta / Omega and G = Omega G1 change with speed, so the system is
 a different LTI system at each speed). Prints the speed-up and the largest relative difference
@@ -16,7 +16,7 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")
 
 import control  # noqa: E402
 
-from rotor_avc.analysis.frf import unbalance_frf  # noqa: E402
+from rotor_avc.closed_loop.frf import unbalance_frf  # noqa: E402
 from rotor_avc.machine import load_machine  # noqa: E402
 
 

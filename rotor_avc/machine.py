@@ -2,22 +2,29 @@
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from .analysis.closed_loop import ClosedLoop
+from .closed_loop.loop import ClosedLoop
 from .config import Section, load_config
 from .control.spec import ContinuousController, controller_from_config
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
+from .settings import AnalysisSettings, ControlSettings, analysis_settings, control_settings
 
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
-    "foot_mount_3d": "rotor_avc.models.foot_mount_3d",
-    "roller_bearing_rotor": "rotor_avc.models.roller_bearing_rotor",
-    "active_bearing": "rotor_avc.models.active_bearing",
-    "rigid_rotor": "rotor_avc.models.rigid_rotor",
-    "sleeve_bearing_motor": "rotor_avc.models.sleeve_bearing_motor",
+    "foot_mount_3d": "rotor_avc.model_config.foot_mount_3d",
+    "roller_bearing_rotor": "rotor_avc.model_config.roller_bearing_rotor",
+    "active_bearing": "rotor_avc.model_config.active_bearing",
+    "rigid_rotor": "rotor_avc.model_config.rigid_rotor",
+    "sleeve_bearing_motor": "rotor_avc.model_config.sleeve_bearing_motor",
 }
+
+#: what a model module may declare in ``SUPPORTS``: seed 002's synchronous feed-forward
+#: (``simulation.feedforward``), seed 000's one-plane balancer on the machine's bearings
+#: (rotor_avc.balancing.scenario.machine_setup), seed 004's rigid-rotor balancer
+#: (``rigid_setup``)
+CAPABILITIES = ("feedforward", "plane_balancer", "rigid_balancer")
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``
 COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analysis",
@@ -30,19 +37,37 @@ RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
 
 @dataclass(frozen=True, eq=False)
 class Machine:
-    """A plant with the continuous controllers its config gives, and the config itself."""
+    """A plant with the continuous controllers its config gives, the config itself and its
+    validated ``analysis:`` and ``control:`` settings (rotor_avc.settings)."""
 
     config: Section
     plant: LinearPlant
     controllers: dict[str, ContinuousController]
+    analysis: AnalysisSettings = field(init=False)
+    control: ControlSettings = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "analysis", analysis_settings(self.config))
+        object.__setattr__(self, "control", control_settings(self.config))
 
     @property
     def loop(self) -> ClosedLoop:
         return ClosedLoop(self.plant, self.controllers)
 
-    @property
-    def analysis(self) -> Section:
-        return self.config.section("analysis", {})
+
+
+def model_supports(cfg: Section, capability: str) -> bool:
+    """Whether the config's model declares ``capability`` (one of :data:`CAPABILITIES`)."""
+    if capability not in CAPABILITIES:
+        raise ValueError(f"unknown capability {capability!r}; use one of {CAPABILITIES}")
+    module = importlib.import_module(MODELS[cfg.choice("model", MODELS)])
+    return capability in getattr(module, "SUPPORTS", ())
+
+
+def models_supporting(capability: str) -> list[str]:
+    """The ``model:`` names whose modules declare ``capability``."""
+    return [name for name, path in MODELS.items()
+            if capability in getattr(importlib.import_module(path), "SUPPORTS", ())]
 
 
 def build_plant(cfg: Section) -> LinearPlant:

@@ -25,7 +25,7 @@ from .bag.writer import write_bag
 
 
 def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
-    """Write the run ``ts`` of ``scenario`` (rotor_avc.sim.scenario.Scenario) to ``path``."""
+    """Write the run ``ts`` of ``scenario`` (rotor_avc.scenario.Scenario) to ``path``."""
     plant = scenario.machine.plant
     t = ts.time_s
     feedback = {foot: c.feedback for foot, c in scenario.machine.controllers.items()}

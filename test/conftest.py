@@ -1,4 +1,5 @@
-"""Test-suite settings: ROS traffic stays on loopback in a private domain; plots off-screen.
+"""Test-suite settings: ROS traffic stays on loopback in a private domain; plots off-screen;
+every test module is of one kind (:data:`KINDS`), marked so that ``pytest -m paper`` etc. selects it.
 
 ``--full`` runs the long physics sweeps in full (CI runs them in their short form)."""
 import os
@@ -14,6 +15,34 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
+#: what each test module checks against -- ``unit``: the code's own contract (errors, files,
+#: commands, structure); ``paper``: the digests' stated numbers and the papers' equations;
+#: ``cross_method``: two formulations, an independent library or a closed form agree;
+#: ``ros_integration``: ROS processes, DDS, bags of the graph, colcon and pip layouts
+KINDS = {
+    "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "balancing_cli",
+             "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
+             "config_errors", "config_keys", "control_block", "control_cli", "import_layers",
+             "bag_sequence", "nodes_timing", "sim_profile", "sim_scenario",
+             "sleeve_bearing_cli", "suite_kinds"),
+    "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
+              "balancing_runup_response", "balancing_switching", "foot_mount_model",
+              "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",
+              "stability_model", "stability_study", "stability_threshold"),
+    "cross_method": ("active_bearing_synchronous", "bag_cdr", "bag_msgdefs", "bag_roundtrip",
+                     "balancing_foot_mount", "balancing_rls", "closed_loop_formulations",
+                     "compare_lockstep", "compare_resonances", "compare_synthetic",
+                     "compare_transfer", "control_discretize", "control_filter",
+                     "control_limits", "control_sampled_loop", "frf_estimate", "order_tracking",
+                     "sim_loop", "sim_stepper", "sleeve_bearing_control", "sleeve_bearing_sim",
+                     "sleeve_bearing_whirl_iteration", "stability_time_domain"),
+    "ros_integration": ("colcon", "compare_ros", "graph_recording", "node_signals",
+                        "nodes_messages", "packaging", "recorder", "replay", "ros_faults",
+                        "ros_graph"),
+}
+KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in names}
+
+
 def pytest_addoption(parser):
     parser.addoption("--full", action="store_true", default=False,
                      help="run the long physics sweeps in full instead of their short form")
@@ -22,6 +51,15 @@ def pytest_addoption(parser):
 def pytest_configure(config):
     config.addinivalue_line("markers", "sweep: long physics sweep; short form unless --full")
     config.addinivalue_line("markers", "ros: needs rclpy (ROS 2 Jazzy from PyPI)")
+    for kind in KINDS:
+        config.addinivalue_line("markers", f"{kind}: test kind (see KINDS in test/conftest.py)")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        kind = KIND_OF.get(item.module.__name__.rpartition(".")[2])
+        if kind is not None:
+            item.add_marker(kind)
 
 
 @pytest.fixture

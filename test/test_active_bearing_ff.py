@@ -11,6 +11,7 @@ from rotor_avc.analysis.active_bearing_ff import (compliance, il_zero_crossing, 
 from rotor_avc.analysis.insertion_loss import first_sign_change, phasor_rms, signal_rms
 from rotor_avc.errors import ModelError
 from rotor_avc.machine import load_machine
+from rotor_avc.model_config import active_bearing as ab_config
 from rotor_avc.models import active_bearing as ab
 from test_active_bearing_model import asymmetric, variant
 
@@ -36,8 +37,8 @@ def test_il_positive_at_every_sensor_for_the_four_cases(method, cfg):
     """The paper: "The IL had a positive value, indicating a decrease in each sensor position"
     -- here with the placeholders, a softer mount and an asymmetric parameter set."""
     p = {None: lambda: load_machine("active_bearing").plant,
-         "soft": lambda: ab.build(variant({"k_pre_n_per_m": 3e4, "k_sp_n_per_m": 1e4})),
-         "asym": lambda: ab.build(asymmetric())}[cfg]()
+         "soft": lambda: ab_config.build(variant({"k_pre_n_per_m": 3e4, "k_sp_n_per_m": 1e4})),
+         "asym": lambda: ab_config.build(asymmetric())}[cfg]()
     res = solve_feedforward(p, CASES, method, U)
     il = res.insertion_loss_db()
     for d in ab.PLANES:
@@ -95,7 +96,7 @@ def test_il_crossing_moves_up_with_bearing_stiffness():
     grid = TWO_PI * np.linspace(1.0, 2500.0, 400)
     found = []
     for k_b, expected in ((2e6, 351), (5e6, 506), (1e7, 690), (2e7, 957), (5e7, 1493)):
-        p = ab.build(variant({"k_b_n_per_m": k_b}))
+        p = ab_config.build(variant({"k_b_n_per_m": k_b}))
         found.append(il_zero_crossing(p, "paper", grid) / TWO_PI)
         assert found[-1] == pytest.approx(expected, abs=2.0)
     assert np.all(np.diff(found) > 0)
@@ -104,7 +105,7 @@ def test_il_crossing_moves_up_with_bearing_stiffness():
 def test_softer_mount_gives_the_papers_monotonic_trend():
     """Digest 11: k_pre = 3e4, k_sp = 1e4 (support resonance ~53 Hz) -> IL 49.7, 24.9, 22.8,
     8.6 dB, falling with speed as the paper states."""
-    p = ab.build(variant({"k_pre_n_per_m": 3e4, "k_sp_n_per_m": 1e4}))
+    p = ab_config.build(variant({"k_pre_n_per_m": 3e4, "k_sp_n_per_m": 1e4}))
     il = side_table(solve_feedforward(p, CASES, "paper"))[("L", "y")]["il_db"]
     np.testing.assert_allclose(il, [49.7, 24.9, 22.8, 8.6], atol=0.1)
     assert np.all(np.diff(il) < 0)
@@ -114,7 +115,7 @@ def test_exact_method_leaves_the_rotor_on_grounded_bearings():
     """With all four housings still, the shaft is a rigid rotor on its bearing springs to ground
     (4 DOF, gyroscopic): an independent model must give the controlled shaft response."""
     cfg = asymmetric()
-    plant = ab.build(cfg)
+    plant = ab_config.build(cfg)
     r = cfg.data["rotor"]
     m_R, I_R, I_p = ab.shaft_mass_properties(r["density_kg_m3"], r["diameter_m"], r["length_m"])
     z_b = {"1": -r["bearing_arm_m"]["1"], "2": r["bearing_arm_m"]["2"]}
@@ -146,7 +147,7 @@ def test_exact_method_leaves_the_rotor_on_grounded_bearings():
 def test_paper_method_cancels_each_bearings_own_terms():
     """Eqs. (32)-(37): at each bearing, the same-plane unbalance term and the two own actuators
     sum to zero housing motion; what remains comes from the terms the paper drops."""
-    plant = ab.build(asymmetric())
+    plant = ab_config.build(asymmetric())
     speeds = TWO_PI * np.array([80.0, 420.0])
     res = solve_feedforward(plant, speeds, "paper", U)
     F_e = plant.excitation("unbalance").phasor(speeds) * U
@@ -204,7 +205,7 @@ def test_a9_printed_sign_of_eq_38_doubles_the_housing_motion(plant):
 
 def test_fixed_spin_frf_keeps_the_spin_in_the_gyroscopic_term():
     """Digest 3.8: for an FRF at fixed spin, Omega stays in G while the frequency w is swept."""
-    plant = ab.build(asymmetric())
+    plant = ab_config.build(asymmetric())
     spin = TWO_PI * 400.0
     freqs = TWO_PI * np.array([90.0, 2300.0])
     H = compliance(plant, [spin, spin], freqs)
@@ -216,7 +217,7 @@ def test_fixed_spin_frf_keeps_the_spin_in_the_gyroscopic_term():
 
 
 def test_forces_do_not_depend_on_the_sensor_choice(plant):
-    other = ab.build(variant(sensors={"bearing1_side_m": [0.013], "bearing2_side_m": [0.091]}))
+    other = ab_config.build(variant(sensors={"bearing1_side_m": [0.013], "bearing2_side_m": [0.091]}))
     for method in ("paper", "exact"):
         a = solve_feedforward(plant, CASES, method, U).forces
         b = solve_feedforward(other, CASES, method, U).forces

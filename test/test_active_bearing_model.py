@@ -10,6 +10,7 @@ import pytest
 from rotor_avc.config import Section, load_config
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import build_plant, load_machine
+from rotor_avc.model_config import active_bearing as ab_config
 from rotor_avc.models import active_bearing as ab
 
 TWO_PI = 2 * np.pi
@@ -81,7 +82,7 @@ def plane_params(cfg, plane):
 
 def test_matrices_follow_eqs_1_to_5():
     cfg = asymmetric()
-    plant = ab.build(cfg)
+    plant = ab_config.build(cfg)
     r = cfg.data["rotor"]
     l1, l2 = r["bearing_arm_m"]["1"], r["bearing_arm_m"]["2"]
     for b, d in enumerate(ab.PLANES):
@@ -151,7 +152,7 @@ def test_a3_an_undeformed_piezo_transmits_no_force():
     force on the actuator mass is its backing spring's. The printed row 5 (k_ac,1 + k_sp) puts a
     piezo force (k_ac,1 - k_ac,2) delta there when the two stacks differ."""
     cfg = asymmetric()
-    plant = ab.build(cfg)
+    plant = ab_config.build(cfg)
     delta = 1e-6
     for i in ab.BEARINGS:
         for d in ab.PLANES:
@@ -210,7 +211,7 @@ def test_a2_the_model_is_dimensionally_consistent_the_literal_omega_i_is_not():
     literal[:6, 6:], literal[6:, :6] = np.eye(6), -np.eye(6)
     results = {}
     for lam in (1.0, 1000.0):
-        plant = ab.build(_scaled(cfg, lam))
+        plant = ab_config.build(_scaled(cfg, lam))
         u = lam * 5e-6
         for name, p in (("gyro", plant), ("literal", dataclasses.replace(plant, gyroscopic=literal))):
             res = solve_feedforward(p, speeds, "exact", u)
@@ -319,7 +320,7 @@ def test_a8_transformed_dynamic_stiffness_needs_k_prime():
     the plant's shaft outputs; the printed "+K" does not (not even statically)."""
     from rotor_avc.analysis.active_bearing_ff import compliance
     cfg = asymmetric()
-    plant = ab.build(cfg)
+    plant = ab_config.build(cfg)
     Pi = ab.sensor_transform(0.03, 0.05)
     names = [o.name for o in plant.outputs]
     rows = {n: plant.outputs[names.index(n)].row for n in ("shaft_L1_y", "shaft_R1_y", "shaft_L1_x")}

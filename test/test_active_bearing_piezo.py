@@ -8,7 +8,8 @@ from rotor_avc.analysis.active_bearing_ff import (il_zero_crossing, saturated_fo
 from rotor_avc.config import load_config
 from rotor_avc.errors import ConfigError, ModelError
 from rotor_avc.machine import load_machine
-from rotor_avc.models.piezo import PiezoStack, piezo_from_config
+from rotor_avc.model_config.active_bearing import piezo_from_config
+from rotor_avc.models.piezo import PiezoStack
 from test_active_bearing_model import variant
 
 TWO_PI = 2 * np.pi

@@ -11,7 +11,7 @@ from rotor_avc.analysis.insertion_loss import phasor_rms, signal_rms
 from rotor_avc.control.synchronous import SynchronousForceGenerator
 from rotor_avc.errors import ModelError
 from rotor_avc.machine import load_machine
-from rotor_avc.models.active_bearing import unbalance_kg_m
+from rotor_avc.model_config.active_bearing import unbalance_kg_m
 from rotor_avc.sim.speed_profile import constant_speed
 from rotor_avc.sim.stepper import PlantStepper
 
@@ -123,7 +123,7 @@ def test_scenario_feedforward_in_the_lockstep_loop(tmp_path, rpm):
     """The same check through a scenario (``simulation.feedforward``) and the in-process lockstep
     loop that the ROS graph reproduces: shaft RMS within 1 % of the frequency domain."""
     from rotor_avc.config import find_config
-    from rotor_avc.sim.scenario import load_scenario
+    from rotor_avc.scenario import load_scenario
     path = tmp_path / "ff.yaml"
     path.write_text(f"include: {find_config('scenario_active_bearing')}\n"
                     f"simulation: {{speed: {{type: constant, speed_hz: {rpm / 60}}}, "

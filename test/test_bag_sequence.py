@@ -11,7 +11,7 @@ from rotor_avc.bag import BagReader, BagWriter
 from rotor_avc.bag.sequence import EXIT_INCOMPLETE, check_sequence
 from rotor_avc.cli import main
 from rotor_avc.recording import write_run_bag
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE_HZ = 5000.0

@@ -118,7 +118,7 @@ def test_time_domain_runup_lowers_every_resonance_peak(setup, full):
     from rest to 30 Hz; the peak bearing-housing velocity near each resonance passed (7.5, 9.4,
     17.2, 19.8, 24.9 Hz) is lower than without balancing. ~1 min: --full only (the quasi-steady
     run-up above is its short form)."""
-    from rotor_avc.balancing.machine_runup import simulate_machine_time
+    from rotor_avc.balancing.time_domain_runup import simulate_machine_time
     if not full:
         pytest.skip("time-domain run-up runs with --full")
     stop_hz = 30.0

@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rotor_avc.analysis.frf import unbalance_frf
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.frf import unbalance_frf
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.balancing.runup_response import runup_response, sudden_onset_time
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
 from rotor_avc.machine import load_machine
-from rotor_avc.models.rigid_rotor import rotor_from_config
+from rotor_avc.model_config.rigid_rotor import rotor_from_config
 
 ROTOR = rotor_from_config(load_config("balancer_rigid_rotor"))
 

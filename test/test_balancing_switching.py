@@ -10,7 +10,7 @@ from rotor_avc.balancing.switching import (eq13_minimiser, mode_amplifications, 
                                            switching_schedule, switching_weight)
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
-from rotor_avc.models.rigid_rotor import rotor_from_config
+from rotor_avc.model_config.rigid_rotor import rotor_from_config
 
 CFG = load_config("balancer_rigid_rotor")
 ROTOR = rotor_from_config(CFG)

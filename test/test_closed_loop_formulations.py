@@ -5,8 +5,8 @@ import pytest
 import scipy.linalg
 import scipy.signal
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.loop import ClosedLoop
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.poles import closed_loop_poles
 from rotor_avc.control import spec
 from rotor_avc.errors import ModelError

@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.comparison import compare_bag
+from rotor_avc.compare.comparison import compare_bag
 from rotor_avc.cli import main
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import write_run_bag
-from rotor_avc.reports.compare_report import ACCEPTANCE, write_report
-from rotor_avc.sim.scenario import scenario_from_config
+from rotor_avc.compare.report import ACCEPTANCE, write_report
+from rotor_avc.scenario import scenario_from_config
 
 STEPPED = {"type": "stepped", "speeds_hz": [30.0, 102.0, 104.0, 106.0, 108.0], "dwell_s": 0.5,
            "transition_s": 0.1}

@@ -9,7 +9,7 @@ import numpy as np
 from rotor_avc.bag import BagReader
 from rotor_avc.cli import main
 from rotor_avc.recording import write_run_bag
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "reference" / "case3_stepped.mcap"

@@ -9,7 +9,7 @@ from test_ros_graph import FEET, ros  # noqa: F401  (the module's rclpy context)
 from rotor_avc.config import find_config
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.plant_simulator import PlantSimulator
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
 

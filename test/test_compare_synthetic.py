@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from rotor_avc.analysis.comparison import broadband_outputs, measured_broadband, measured_one_x
-from rotor_avc.analysis.recorded_run import read_run
+from rotor_avc.compare.comparison import broadband_outputs, measured_broadband, measured_one_x
+from rotor_avc.compare.recorded_run import read_run
 from rotor_avc.bag import topics as T
 from rotor_avc.bag.writer import write_bag
 from rotor_avc.config import load_yaml
-from rotor_avc.sim.scenario import scenario_from_config
+from rotor_avc.scenario import scenario_from_config
 
 ROOT = Path(__file__).resolve().parents[1]
 FS = 2000.0

@@ -12,7 +12,7 @@ from rotor_avc.errors import ConfigError, ModelError
 from rotor_avc.recording import write_run_bag
 from rotor_avc.sim.broadband import BroadbandForce
 from rotor_avc.sim.loop import control_plan, controller_forces, start
-from rotor_avc.sim.scenario import scenario_from_config
+from rotor_avc.scenario import scenario_from_config
 from rotor_avc.sim.stepper import PlantStepper
 
 FS = 5000.0

@@ -5,7 +5,7 @@ one against the impulse response of the lockstep loop itself (plant stepper + co
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.sampled_loop import machine_sampled_loop
 from rotor_avc.analysis.transfer import sampled_transfer_frf, transfer_frf
 from rotor_avc.config import find_config, load_yaml

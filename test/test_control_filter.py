@@ -1,6 +1,5 @@
-"""The per-sample filter: equal to scipy.signal.lfilter, steady-state start, bumpless gain, speed."""
+"""The per-sample filter: equal to scipy.signal.lfilter, steady-state start, bumpless gain."""
 import math
-import time
 
 import numpy as np
 import pytest
@@ -118,17 +117,3 @@ def test_reset_and_state_errors():
         filt.set_state([1.0])
     with pytest.raises(ModelError, match="finite"):
         filt.set_gain(math.nan)
-
-
-def test_step_costs_about_a_microsecond():
-    tf = discretize_controller(SPECS["PID"], T, "tustin")
-    filt = IirFilter(tf.b, tf.a)
-    x = np.random.default_rng(0).standard_normal(20_000).tolist()
-    step = filt.step
-    best = math.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        for v in x:
-            step(v)
-        best = min(best, (time.perf_counter() - t0) / len(x))
-    assert best < 5e-6                                 # ~0.3 us here; generous for loaded CI

@@ -4,8 +4,8 @@ acceleration feed-through gain limit."""
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.loop import ClosedLoop
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.poles import closed_loop_poles, worst_case_poles
 from rotor_avc.analysis.sampled_loop import SampledLoop, gain_ranges, machine_sampled_loop
 from rotor_avc.control.block import DigitalController

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.signal import find_peaks
 
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.poles import machine_poles, undamped_poles
 from rotor_avc.machine import load_machine
 

@@ -18,7 +18,7 @@ from rotor_avc.bag.sequence import check_sequence
 from rotor_avc.cli import main
 from rotor_avc.config import find_config
 from rotor_avc.nodes.graph import run_graph
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]

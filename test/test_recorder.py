@@ -21,7 +21,7 @@ from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.plant_simulator import PlantSimulator
 from rotor_avc.nodes.recorder import Recorder
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
 T_NS = 200_000                       # 5 kHz

@@ -17,7 +17,7 @@ from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.plant_simulator import PlantSimulator
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
 

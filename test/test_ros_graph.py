@@ -13,7 +13,7 @@ from rotor_avc.analysis.sampled_loop import machine_sampled_loop
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.plant_simulator import PlantSimulator
 from rotor_avc.sim.loop import run_loop
-from rotor_avc.sim.scenario import load_scenario
+from rotor_avc.scenario import load_scenario
 
 pytestmark = pytest.mark.ros
 FEET = ("DL", "DR", "NL")

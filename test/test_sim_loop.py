@@ -5,7 +5,7 @@ series and its file, and a balancer block."""
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.sampled_loop import SampledLoop
 from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.errors import ModelError

@@ -8,7 +8,7 @@ import yaml
 
 from rotor_avc.cli import main
 from rotor_avc.errors import ConfigError
-from rotor_avc.sim.scenario import load_scenario, relevant_mode_hz
+from rotor_avc.scenario import load_scenario, relevant_mode_hz
 from rotor_avc.sim.timeseries import TimeSeries
 
 SHIPPED = ["scenario_case3_steady", "scenario_case2_runup", "scenario_case3_stepped"]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.errors import ModelError
 from rotor_avc.machine import load_machine
 from rotor_avc.models.discretize import discretize_plant

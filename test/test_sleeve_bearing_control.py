@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.loop import ClosedLoop
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.control.spec import (i_controller, p_controller, pd_controller, pi_controller,
                                     pid_controller)
 from rotor_avc.errors import ModelError

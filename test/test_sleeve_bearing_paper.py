@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.signal import find_peaks
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.loop import ClosedLoop
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.gain_study import gain_study
 from rotor_avc.analysis.whirl_iteration import per_mode_poles
 from rotor_avc.control.spec import p_controller

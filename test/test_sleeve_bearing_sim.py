@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.frf import unbalance_frf
+from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.sampled_loop import SampledLoop, machine_sampled_loop
 from rotor_avc.config import Section, load_config
 from rotor_avc.control.block import build_digital_controllers

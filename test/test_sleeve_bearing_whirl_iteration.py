@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.poles import machine_poles
 from rotor_avc.analysis.whirl_iteration import per_mode_poles
 from rotor_avc.errors import ModelError

@@ -7,12 +7,13 @@ import copy
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.stability_threshold import StateMatrices
 from rotor_avc.config import Section, load_config
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import build_controllers, build_plant
-from rotor_avc.models.roller_bearing_rotor import COORDS, eq14_whirl_rad_s, matrices, read_params
+from rotor_avc.model_config.roller_bearing_rotor import read_params
+from rotor_avc.models.roller_bearing_rotor import COORDS, eq14_whirl_rad_s, matrices
 
 CONFIG = "roller_bearing_stability"
 

@@ -6,14 +6,15 @@ import math
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.closed_loop import ClosedLoop
+from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.analysis.stability_study import (machine_threshold, with_overrides,
                                                 with_variants)
 from rotor_avc.analysis.stability_threshold import (StateMatrices, first_crossing,
                                                     stability_threshold)
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
-from rotor_avc.models.roller_bearing_rotor import eq14_whirl_rad_s, read_params
+from rotor_avc.model_config.roller_bearing_rotor import read_params
+from rotor_avc.models.roller_bearing_rotor import eq14_whirl_rad_s
 
 RPM = 30.0 / math.pi
 

@@ -27,15 +27,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..closed_loop.loop import ClosedLoop
 from ..config import Section
+from ..control.synchronous import SynchronousForceGenerator
 from ..errors import ModelError
 from ..models.active_bearing import COORDS, PLANES, plane_mask
 from ..models.piezo import PiezoStack
 from ..models.plant import LinearPlant
-from .closed_loop import ClosedLoop
+from ..settings import FEEDFORWARD_METHODS as METHODS
 from .insertion_loss import first_sign_change, insertion_loss_db, phasor_rms
 
-METHODS = ("paper", "exact")
 
 
 def feedforward_method(cfg: Section) -> str:
@@ -225,7 +226,6 @@ def synchronous_generator(plant: LinearPlant, sample_period_s: float, unbalance_
     """The 1x force generator of the run (rotor_avc.control.synchronous): the quantified forces
     per unit unbalance tabulated from 1 Hz up to 90 % of the Nyquist frequency, played for the
     run's (known) unbalance, with the hold compensation of sample period ``T``."""
-    from ..control.synchronous import SynchronousForceGenerator
     top = 0.9 * np.pi / sample_period_s
     table = solve_feedforward(plant, np.linspace(2 * np.pi, top, points), method, 1.0)
     return SynchronousForceGenerator(table.speed_rad_s, table.forces_per_unit, unbalance_kg_m,

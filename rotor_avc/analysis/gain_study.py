@@ -3,7 +3,7 @@
 For each gain ``K`` of one controller term (the paper: P-controllers, ``K_pL = K_pR``, on
 displacement, velocity or acceleration feedback; eqs. 79-84) every actuator gets the same
 controller and the synchronous response to one excitation is computed over speed (eqs. 65-77,
-:func:`rotor_avc.analysis.frf.unbalance_frf`). From the curves:
+:func:`rotor_avc.closed_loop.frf.unbalance_frf`). From the curves:
 
 * **resonances** -- the open-loop peaks of the chosen quantities (default: the bearing-housing
   velocities, the paper's Figs. 5, 8, 11) whose height is at least ``peak_fraction`` of that
@@ -32,8 +32,8 @@ from ..config import Section
 from ..control.spec import CONTROLLER_KEYS, ContinuousController, controller_from_config
 from ..errors import ModelError
 from ..models.plant import LinearPlant
-from .closed_loop import ClosedLoop
-from .frf import unbalance_frf
+from ..closed_loop.loop import ClosedLoop
+from ..closed_loop.frf import unbalance_frf
 
 RPM_PER_RAD_S = 30.0 / np.pi
 #: the swept gain of each controller structure unless named otherwise

@@ -8,7 +8,7 @@ integer number ``n`` of revolutions (seed 000 section 10, "Phasors")::
     Y_hat = (2/N) sum_k y[k] e^{-j theta[k]},     Y_hat / u  ->  the response per unit unbalance
 
 where ``u`` is the run's complex unbalance amplitude (e.g. ``m e e^{j phi}`` in kg m), so the
-result compares directly with :func:`rotor_avc.analysis.frf.unbalance_frf`. The window
+result compares directly with :func:`rotor_avc.closed_loop.frf.unbalance_frf`. The window
 ``[k0, k1)`` is chosen with ``theta[k1] - theta[k0]`` as close to ``2 pi n`` as the sampling
 allows; at constant speed the ``e^{-2 j theta}`` image then cancels up to the fraction of a
 sample by which the span misses ``2 pi n`` (relative error below ``1 / samples_per_window``),

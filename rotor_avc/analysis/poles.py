@@ -18,8 +18,8 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ModelError
-from .closed_loop import ClosedLoop
-from .whirl_iteration import whirl_iteration_poles
+from ..closed_loop.loop import ClosedLoop
+from .whirl_iteration import per_mode_poles
 
 
 @dataclass
@@ -101,23 +101,29 @@ def worst_case_poles(loop: ClosedLoop, speed_rad_s: float, n_modes: int = 6, tol
 
 
 def _worst_case_from_config(machine, speed_rad_s: float) -> PoleResult:
-    wc = machine.analysis.section("worst_case", {})
-    wc.check_keys(("n_modes", "rel_change_tol", "max_iter"))
-    return worst_case_poles(machine.loop, speed_rad_s,
-                            n_modes=wc.integer("n_modes", 6, minimum=1),
-                            tol=wc.number("rel_change_tol", 0.05, positive=True, maximum=1.0),
-                            max_iter=wc.integer("max_iter", 20, minimum=1))
+    wc = machine.analysis.worst_case
+    return worst_case_poles(machine.loop, speed_rad_s, n_modes=wc.n_modes,
+                            tol=wc.rel_change_tol, max_iter=wc.max_iter)
 
 
-#: ``analysis.pole_method`` -> ``f(machine, speed_rad_s) -> PoleResult``; each plant's config
-#: names the damping procedure of its paper (seed 000: Figure 4's worst case).
+def whirl_iteration_poles(machine, speed_rad_s: float) -> PoleResult:
+    """``analysis.pole_method: whirl_iteration``: every mode damped at its own whirl frequency
+    (:func:`~rotor_avc.analysis.whirl_iteration.per_mode_poles`, seed 001 Sec. 3.3); ``w_F``
+    and the one-entry history are the least damped pole's."""
+    res = per_mode_poles(machine.loop, speed_rad_s, rel_tol=machine.analysis.whirl_iteration.rel_tol)
+    w_F = float(res.w_F[res.critical])
+    return PoleResult(speed_rad_s, w_F, res.poles, [w_F])
+
+
+#: ``analysis.pole_method`` (rotor_avc.settings.POLE_METHODS) -> ``f(machine, speed_rad_s) ->
+#: PoleResult``; each plant's config names the damping procedure of its paper (seed 000:
+#: Figure 4's worst case).
 POLE_METHODS = {
     "worst_case": _worst_case_from_config,
-    "whirl_iteration": whirl_iteration_poles,    # seed 001 (rotor_avc.analysis.whirl_iteration)
+    "whirl_iteration": whirl_iteration_poles,    # seed 001
 }
 
 
 def machine_poles(machine, speed_rad_s: float) -> PoleResult:
     """Poles of a configured machine with the damping procedure its config names."""
-    method = machine.analysis.choice("pole_method", POLE_METHODS, default="worst_case")
-    return POLE_METHODS[method](machine, speed_rad_s)
+    return POLE_METHODS[machine.analysis.pole_method](machine, speed_rad_s)

@@ -1,5 +1,5 @@
 """Resonance peaks of a response over speed (or frequency): from a dense model curve, and from a
-few measured points around one (rotor_avc.analysis.comparison).
+few measured points around one (rotor_avc.compare.comparison).
 
 * :func:`model_peaks` -- peaks of at least :data:`PROMINENCE_DB` dB prominence of a dense curve,
   refined by the parabola (dB over frequency) through the highest grid point and its neighbours,

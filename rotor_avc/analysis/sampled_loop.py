@@ -15,8 +15,8 @@ ZOH-discretised (:func:`rotor_avc.models.discretize.discretize_plant`), holds ``
 * discrete closed-loop poles: ``eig(A_cl)`` (``z``), with ``s = ln(z) / T`` to set beside the
   continuous poles; stable <=> ``max |z| < 1``;
 * unbalance response at the sample instants: ``X_hat = (e^{j Omega T} I - A_cl)^{-1} B_e``, output
-  and force phasors in the :class:`~rotor_avc.analysis.frf.SpeedFrf` form of
-  :func:`~rotor_avc.analysis.frf.unbalance_frf` (same names, so the two overlay);
+  and force phasors in the :class:`~rotor_avc.closed_loop.frf.SpeedFrf` form of
+  :func:`~rotor_avc.closed_loop.frf.unbalance_frf` (same names, so the two overlay);
 * the stable range of a common gain factor on all controllers (bisection on ``max |z| = 1``).
 
 An integrating controller (pole at z = 1) on velocity or acceleration leaves an exact closed-loop
@@ -34,13 +34,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..control.block import DEFAULT_SAMPLE_RATE_HZ, DigitalController, build_digital_controllers
+from ..control.block import DigitalController, build_digital_controllers
 from ..control.discretize import DiscreteTf
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ModelError
 from ..models.discretize import DiscretePlant, discretize_plant
 from ..models.plant import LinearPlant
-from .frf import SpeedFrf
+from ..closed_loop.frf import SpeedFrf
 from .poles import pole_table
 
 DRIFT_TOL = 1e-8
@@ -341,9 +341,7 @@ def machine_sampled_loop(machine, sample_period_s: float | None = None) -> Sampl
     with its loops open, the exact sampled plant at ``T`` (default: the control rate)."""
     blocks = build_digital_controllers(machine, sample_period_s)
     if not blocks and sample_period_s is None:
-        rate = machine.config.section("control", {}).number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ,
-                                                            positive=True, unit="Hz")
-        sample_period_s = 1.0 / rate
+        sample_period_s = 1.0 / machine.control.rate_hz
     return SampledLoop.from_blocks(machine.plant, blocks, sample_period_s)
 
 

@@ -26,13 +26,12 @@ import yaml
 
 from ..config import Section
 from ..errors import ConfigError
-from ..machine import MODELS, Machine, build_controllers, build_plant
+from ..machine import MODELS, Machine, machine_from_section
+from ..settings import ThresholdSettings, analysis_settings
+from .sampled_loop import machine_sampled_loop
 from .stability_threshold import ThresholdResult, stability_threshold
 
 RAD_S_PER_RPM = math.pi / 30.0
-#: ``analysis.stability.controller``: the controllers' continuous G_c(s), or the digital ones
-#: at the config's ``control.sample_rate_hz`` (the sampled loop of DESIGN.md 3)
-CONTROLLER_KINDS = ("continuous", "sampled")
 
 
 # -- variants and overrides ---------------------------------------------------------------------
@@ -81,43 +80,10 @@ def with_variants(cfg: Section, names) -> Section:
     return cfg
 
 
-def build_machine(cfg: Section) -> Machine:
-    """Plant and controllers of an (overridden) config, validated as ``load_machine`` does."""
-    plant = build_plant(cfg)
-    return Machine(cfg, plant, build_controllers(cfg, plant))
-
-
 # -- the threshold of one configuration ---------------------------------------------------------
-@dataclass(frozen=True)
-class ThresholdSettings:
-    """``analysis.stability`` of a config: the procedure's numbers (digest 5-6)."""
-
-    w_F_start: float | str          # rad/s, or "model": the model's estimate (seed 003: eq. 14)
-    rel_tol: float
-    max_iter: int
-    speed_min_rpm: float
-    speed_max_rpm: float
-    n_grid: int
-    campbell_max_rad_s: float
-    controller: str                 # "continuous" G_c(s), or "sampled": the digital controllers
-
-
 def threshold_settings(cfg: Section) -> ThresholdSettings:
-    """Read and validate ``analysis.stability`` (defaults: digest 5)."""
-    sec = cfg.section("analysis", {}).section("stability", {})
-    sec.check_keys(("w_F_start", "rel_tol", "max_iter", "speed_min_rpm", "speed_max_rpm", "n_grid",
-                    "campbell_max_rad_s", "controller"))
-    lo = sec.number("speed_min_rpm", 10.0, positive=True, unit="rpm")
-    start = sec.raw("w_F_start", "model")
-    return ThresholdSettings(
-        w_F_start=start if start == "model" else sec.number("w_F_start", positive=True, unit="rad/s"),
-        rel_tol=sec.number("rel_tol", 1e-6, positive=True, maximum=0.1),
-        max_iter=sec.integer("max_iter", 50, minimum=1),
-        speed_min_rpm=lo,
-        speed_max_rpm=sec.number("speed_max_rpm", 5e5, unit="rpm", minimum=lo * (1 + 1e-9)),
-        n_grid=sec.integer("n_grid", 200, minimum=3),
-        campbell_max_rad_s=sec.number("campbell_max_rad_s", 1000.0, positive=True, unit="rad/s"),
-        controller=sec.choice("controller", CONTROLLER_KINDS, default="continuous"))
+    """``analysis.stability`` of a config, validated (defaults: digest 5)."""
+    return analysis_settings(cfg).stability
 
 
 def whirl_start(cfg: Section, settings: ThresholdSettings) -> float:
@@ -138,14 +104,12 @@ def stability_loop(machine: Machine, settings: ThresholdSettings):
     ``controller: sampled`` the sampled loop of the digital controllers."""
     if settings.controller == "continuous" or not machine.controllers:
         return machine.loop
-    from .sampled_loop import machine_sampled_loop       # (its import chain reaches this module)
-
     return machine_sampled_loop(machine)
 
 
 def machine_threshold(cfg: Section) -> tuple[Machine, ThresholdResult]:
     """Build the machine of a config and run the threshold procedure with its settings."""
-    machine = build_machine(cfg)
+    machine = machine_from_section(cfg)
     s = threshold_settings(cfg)
     result = stability_threshold(stability_loop(machine, s), whirl_start(cfg, s),
                                  s.speed_min_rpm * RAD_S_PER_RPM, s.speed_max_rpm * RAD_S_PER_RPM,

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.optimize
 
 from ..errors import ModelError
-from .closed_loop import ClosedLoop
+from ..closed_loop.loop import ClosedLoop
 
 RPM_PER_RAD_S = 30.0 / np.pi
 

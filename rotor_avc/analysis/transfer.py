@@ -8,7 +8,7 @@ which keep acting on their own feedback signals. Responses per unit force:
 
       q(w) = Z(j w)^-1 P_i,     quantity = (j w)^order row . q,     f_c = -H_c(j w) s_c . q
 
-  where ``Z`` is :meth:`rotor_avc.analysis.closed_loop.ClosedLoop.dynamic_stiffness` and
+  where ``Z`` is :meth:`rotor_avc.closed_loop.loop.ClosedLoop.dynamic_stiffness` and
   ``f_c`` the force a controller answers with (zero at actuators without one);
 * sampled (DESIGN.md section 3; the plant exactly ZOH-discretised by
   :func:`rotor_avc.models.discretize.discretize_plant`, ``z = e^{j w T}``): the applied actuator
@@ -36,7 +36,7 @@ from ..control.spec import FEEDBACK_ORDER
 from ..errors import ModelError
 from ..models.discretize import discretize_plant
 from ..models.plant import LinearPlant
-from .closed_loop import ClosedLoop
+from ..closed_loop.loop import ClosedLoop
 
 _FOOT = {"d": (0, "m"), "v": (1, "m/s"), "a": (2, "m/s^2")}
 

@@ -34,7 +34,7 @@ import numpy as np
 import scipy.optimize
 
 from ..errors import ModelError
-from .closed_loop import ClosedLoop
+from ..closed_loop.loop import ClosedLoop
 
 #: ratio of neighbouring points of the ``w_F`` grid over which the branches are followed
 GRID_RATIO = 1.05
@@ -117,16 +117,3 @@ def per_mode_poles(loop: ClosedLoop, speed_rad_s: float, rel_tol: float = 1e-6) 
                          f"conjugate-symmetric ({poles.size} for {lam.shape[1]} states)")
     return WhirlIteration(float(speed_rad_s), poles, np.array(w_out))
 
-
-def whirl_iteration_poles(machine, speed_rad_s: float):
-    """``analysis.pole_method: whirl_iteration`` -> :class:`~rotor_avc.analysis.poles.PoleResult`
-    (its ``w_F`` and one-entry history: the least damped pole's); settings
-    ``analysis.whirl_iteration.rel_tol``."""
-    from .poles import PoleResult            # poles.py registers this function
-
-    sec = machine.analysis.section("whirl_iteration", {})
-    sec.check_keys(("rel_tol",))
-    res = per_mode_poles(machine.loop, speed_rad_s,
-                         rel_tol=sec.number("rel_tol", 1e-6, positive=True, maximum=0.01))
-    w_F = float(res.w_F[res.critical])
-    return PoleResult(speed_rad_s, w_F, res.poles, [w_F])

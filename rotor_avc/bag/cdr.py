@@ -50,9 +50,11 @@ class Layout:
     ``leaves`` maps a field path (``accel.linear.z``, ``position``, ``status[0].level``) to
     ``(offset, dtype, count, is_scalar)``; ``prefixes`` maps the offsets of every string length
     and sequence count to its value -- messages whose prefixes all match share the layout.
+    ``end`` is the byte after the last field (``size`` may include trailing bytes).
     """
 
     size: int
+    end: int = 0
     leaves: dict[str, tuple[int, np.dtype, int, bool]] = dc_field(default_factory=dict)
     prefixes: dict[int, int] = dc_field(default_factory=dict)
 
@@ -168,6 +170,7 @@ class CdrCodec:
         """The field offsets of this message's structure (see :class:`Layout`)."""
         dec = _Decoder(self.specs, data, Layout(len(data)))
         dec.message(self.specs[self.type_name])
+        dec.layout.end = dec.pos
         return dec.layout
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..blocks import SnapshotState
 from ..errors import ModelError
 
 
@@ -39,8 +40,11 @@ class BalancerOutput:
     held: bool = False                    # the estimator held this sample
 
 
-class BalancerBlock:
-    """Estimator + law + supervisor; see the module docstring."""
+class BalancerBlock(SnapshotState):
+    """Estimator + law + supervisor; see the module docstring. A :class:`rotor_avc.blocks.
+    Estimator` block (state: the estimator's, the mode, target and commanded moves)."""
+
+    STATE = ("estimator", "mode", "target", "events")
 
     def __init__(self, estimator, law, estimate_until_s: float = 0.0,
                  initial_position: complex = 0j):

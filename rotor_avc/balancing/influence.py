@@ -3,7 +3,7 @@
 For the balancer on a LinearPlant (seed 000 digest 10, "Balancer node"): the synchronous response
 of a channel ``c`` at speed ``Omega`` and angular acceleration ``Omega'`` is, quasi-steadily,
 ``y_c = Re{sum_k A_ck(Omega, Omega') u_k e^{j theta}}`` with the closed-loop responses of
-:func:`rotor_avc.analysis.frf.unbalance_frf` (``Omega'`` enters through the tangential ``-j Omega'``
+:func:`rotor_avc.closed_loop.frf.unbalance_frf` (``Omega'`` enters through the tangential ``-j Omega'``
 part of the excitation phasor, so ``A = A0 + Omega' A1`` exactly). Both are tabulated once on a
 speed grid and interpolated linearly (the grid step is chosen well below the half-power bandwidth
 of the lightest-damped mode).
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis.closed_loop import ClosedLoop
-from ..analysis.frf import unbalance_frf
+from ..closed_loop.loop import ClosedLoop
+from ..closed_loop.frf import unbalance_frf
 from ..errors import ModelError
 from ..models.plant import Output
 

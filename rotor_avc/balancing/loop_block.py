@@ -2,7 +2,7 @@
 
 What the balancer node runs, and what the in-process loop runs in its place: at every plant
 sample it receives the sample time, shaft angle and speed and the plant's measurement vector
-(:class:`rotor_avc.sim.loop.LoopSample`) and returns the correction the balancer applies, as
+(:class:`rotor_avc.blocks.LoopSample`) and returns the correction the balancer applies, as
 excitation amplitudes ``{"static": c, "moment": j a c}`` of its plane (rotor_avc.balancing.plane).
 
 * Its signals (foot accelerations or plant outputs, ``balancer.signals``) are picked from the
@@ -10,7 +10,7 @@ excitation amplitudes ``{"static": c, "moment": j a c}`` of its plane (rotor_avc
 * The balancer block (estimator + law + supervisor, rotor_avc.balancing.block) runs every
   ``round(balancer.sample_period_s / T)`` plant samples; the correction follows the rate-limited
   actuator (rotor_avc.balancing.actuator) at the middle of the coming interval, as the
-  time-domain run-up does (rotor_avc.balancing.machine_runup).
+  time-domain run-up does (rotor_avc.balancing.time_domain_runup).
 * The angular acceleration is the backward difference of the measured speed (what a balancer
   with a speed encoder has), so the node and the in-process loop compute the same numbers.
 """
@@ -20,12 +20,17 @@ import math
 
 import numpy as np
 
+from ..blocks import LoopSample, SnapshotState
 from ..errors import ModelError
 from .machine_rls import MachineSample
 
 
-class LoopBalancer:
-    """``reset()``, ``step(sample) -> {excitation: amplitude}`` (see the module docstring)."""
+class LoopBalancer(SnapshotState):
+    """``reset()``, ``step(sample) -> {excitation: amplitude}`` (see the module docstring); a
+    :class:`rotor_avc.blocks.Balancer` block (state: the inner block, the actuator's move, the
+    sample count, the last speed, output and correction)."""
+
+    STATE = ("block", "actuator", "_prev_speed", "_k", "last_output", "correction")
 
     def __init__(self, setup, plant_period_s: float):
         ratio = setup.runup.sample_period_s / plant_period_s
@@ -60,7 +65,7 @@ class LoopBalancer:
             raise ModelError(f"balancer signals {missing} are not among the plant's measurements")
         return [lookup[w] for w in wanted]
 
-    def step(self, sample) -> dict[str, complex]:
+    def step(self, sample: LoopSample) -> dict[str, complex]:
         if self._index is None:
             self._index = self._signal_index(sample.names)
         t, speed = sample.t, sample.speed

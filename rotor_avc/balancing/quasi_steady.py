@@ -25,30 +25,8 @@ from ..errors import ModelError
 from .actuator import BalancerActuator
 from .influence import InfluenceTable
 from .machine_rls import MachineSample
+from .machine_runup import MachineRunup
 from .plane import MachinePlane
-
-
-@dataclass(frozen=True)
-class MachineRunup:
-    """Constant-acceleration run-up ``speed0 -> stop`` of a machine with a known unbalance."""
-
-    accel_rad_s2: float
-    speed0_rad_s: float
-    stop_rad_s: float
-    sample_period_s: float
-    unbalance: tuple[complex, complex]        # (u_e [kg m], u_alpha [kg m^2])
-    noise_std: float = 0.0                    # on every balancer signal (channel units)
-    seed: int = 0
-
-    def __post_init__(self):
-        if not (self.accel_rad_s2 > 0 and self.sample_period_s > 0 and self.noise_std >= 0):
-            raise ModelError("run-up acceleration and sample period must be > 0, noise >= 0")
-        if not 0 <= self.speed0_rad_s < self.stop_rad_s:
-            raise ModelError("run-up needs 0 <= start speed < stop speed")
-
-    @property
-    def duration_s(self) -> float:
-        return (self.stop_rad_s - self.speed0_rad_s) / self.accel_rad_s2
 
 
 @dataclass

@@ -75,7 +75,7 @@ def _check(omega_n, zeta, alpha, omega0):
     if not (np.isfinite(alpha) and alpha > 0):
         raise ModelError(f"angular acceleration must be > 0 (got {alpha}): the run-up response "
                          "of Appendix A needs a constant acceleration; use the steady-state "
-                         "FRF (rotor_avc.analysis.frf) at constant speed")
+                         "FRF (rotor_avc.closed_loop.frf) at constant speed")
     if not (np.isfinite(omega0) and omega0 >= 0):
         raise ModelError(f"initial speed must be >= 0 (got {omega0})")
 

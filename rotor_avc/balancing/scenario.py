@@ -16,15 +16,16 @@ import numpy as np
 
 from ..config import Section
 from ..errors import ModelError
-from ..machine import Machine
-from ..models.rigid_rotor import RigidRotor, rotor_from_config
+from ..machine import Machine, model_supports, models_supporting
+from ..model_config.rigid_rotor import rotor_from_config
+from ..models.rigid_rotor import RigidRotor
 from .actuator import BalancerActuator
 from .block import BalancerBlock
 from .influence import InfluenceTable, influence_table
 from .machine_rls import MachineImbalanceRls
 from .plane import MachinePlane, point_mass_unbalance
 from .plane_correction import CORRECTION_STRATEGIES, PlaneCorrectionLaw
-from .quasi_steady import MachineRunup
+from .machine_runup import MachineRunup
 from .regression import AXES, REGRESSIONS
 from .rigid_runup import RigidRunup
 from .rls import RigidRotorRls
@@ -166,6 +167,10 @@ class MachineSetup:
 def machine_setup(machine: Machine) -> MachineSetup:
     cfg = machine.config
     bal = cfg.section("balancer")
+    if not model_supports(cfg, "plane_balancer"):
+        raise cfg.error("balancer", f"model {cfg.string('model')} has no one-plane machine "
+                        "balancer (it is placed between the machine's bearings)",
+                        fix="use it with model: " + ", ".join(models_supporting("plane_balancer")))
     bal.check_keys(("plane_axial_position_m", "max_mass_radius_kg_m", "move_time_s",
                     "max_rate_kg_m_per_s", "sample_period_s", "signals", "objective",
                     "speed_step_hz", "estimator", "supervisor", "run_up"))

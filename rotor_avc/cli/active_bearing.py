@@ -6,8 +6,6 @@ the speed where IL first drops below 0 dB and the piezo stroke-limit report; wri
 """
 from __future__ import annotations
 
-import csv
-import json
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +14,9 @@ from ..analysis.active_bearing_ff import (METHODS, feedforward_method, il_zero_c
                                           saturated_forces, saturation_onset, side_table,
                                           solve_feedforward)
 from ..machine import load_machine
-from ..models.active_bearing import PLANES, unbalance_kg_m
-from ..models.piezo import piezo_from_config
+from ..model_config.active_bearing import piezo_from_config, unbalance_kg_m
+from ..models.active_bearing import PLANES
+from ..reports.active_bearing_files import write_active_bearing_files
 from .common import speed_range_hz
 
 NAME = "active-bearing"
@@ -49,15 +48,16 @@ def run(args) -> int:
     piezo = piezo_from_config(cfg)
     method = feedforward_method(cfg)
     ana = machine.analysis
-    cases_hz = np.array(ana.number_list("cases_rpm", min_length=1)) / 60.0
-    if np.any(cases_hz <= 0):
-        raise ana.error("cases_rpm", "speeds must be > 0", fix="give positive speeds in rpm")
+    required = {"cases_rpm": ana.cases_rpm} if args.speed_hz is not None else {
+        "cases_rpm": ana.cases_rpm, "il_speed_hz": ana.il_speed_hz}
+    for key, value in required.items():
+        if value is None:
+            raise cfg.section("analysis", {}).error(key, "missing", fix=f"add `{key}:` to analysis")
+    cases_hz = np.array(ana.cases_rpm) / 60.0
     sweep_hz = args.speed_hz
     if sweep_hz is None:
-        rng = ana.section("il_speed_hz")
-        start = rng.number("start", positive=True, unit="Hz")
-        sweep_hz = np.linspace(start, rng.number("stop", minimum=start, unit="Hz"),
-                               rng.integer("n", minimum=2))
+        rng = ana.il_speed_hz
+        sweep_hz = np.linspace(rng.start, rng.stop, rng.n)
     cases = {m: solve_feedforward(plant, TWO_PI * cases_hz, m, u) for m in METHODS}
     sweep = {m: solve_feedforward(plant, TWO_PI * sweep_hz, m, u) for m in METHODS}
     chosen = cases[method]
@@ -122,81 +122,8 @@ def run(args) -> int:
           f"first drops below 0 dB at {_fmt_hz(sat_zero)}")
 
     if args.out is not None:
-        _write(args.out, sweep, method, alpha_sw, forces_sat, il_sat, piezo, rows, {
+        write_active_bearing_files(args.out, sweep, method, alpha_sw, forces_sat, il_sat, piezo, rows, {
             "method": method, "unbalance_kg_m": u,
             "il_zero_crossing_hz": crossing, "saturation_onset_hz": onset,
             "saturated_il_zero_crossing_hz": sat_zero, "cases_rpm": (60 * cases_hz).tolist()})
     return 0
-
-
-def _write(out: Path, sweep, method, alpha, forces_sat, il_sat, piezo, rows, summary) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "cases.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    res = sweep[method]
-    cols = {"speed_hz": res.speed_hz, "speed_rpm": 60 * res.speed_hz,
-            "force_limit_n": piezo.force_limit_n(res.speed_rad_s), "saturation_alpha": alpha}
-    for i, a in enumerate(res.actuator_ids):
-        cols[f"force_{a}_n"] = np.abs(res.forces[:, i])
-        cols[f"phase_{a}_deg"] = res.force_phase_deg()[:, i]
-    shaft = res.outputs("shaft_")
-    for m in METHODS:
-        il = sweep[m].insertion_loss_db()
-        for k in shaft:
-            cols[f"il_{m}_{res.output_names[k]}_db"] = il[:, k]
-    il_s = res.insertion_loss_db(forces_sat)
-    for k in shaft:
-        cols[f"il_saturated_{res.output_names[k]}_db"] = il_s[:, k]
-    with open(out / "il_over_speed.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(list(cols))
-        for row in np.column_stack(list(cols.values())):
-            w.writerow([f"{x:.8g}" for x in row])
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
-    paths = [out / "cases.csv", out / "il_over_speed.csv", out / "summary.json"]
-    paths += _plot(out, sweep, method, il_sat, piezo)
-    for p in paths:
-        print(f"wrote {p}")
-
-
-def _plot(out: Path, sweep, method, il_sat, piezo) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    res = sweep[method]
-    f = res.speed_hz
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
-    for ax, d in zip(axes, ("x", "y")):
-        for m, style in zip(METHODS, ("-", "--")):
-            il = sweep[m].insertion_loss_db()
-            for n, k in enumerate(res.outputs("shaft_", d)):
-                ax.plot(f, il[:, k], style, lw=0.8, color=f"C{n % 10}",
-                        label=res.output_names[k][6:-2] if m == METHODS[0] else None)
-        ax.plot(f, il_sat, ":", color="k", lw=1.2, label=f"{method}, piezo-saturated (min)")
-        ax.axhline(0.0, color="k", ls=":", lw=0.8)
-        ax.set_title(f"({'ab'[('x', 'y').index(d)]}) {d}-direction (solid: paper, dashed: exact)",
-                     fontsize=9)
-        ax.set_xlabel("rotational frequency [Hz]")
-        ax.grid(alpha=0.3)
-        ax.set_ylim(-40, 80)
-    axes[0].set_ylabel("insertion loss IL [dB]")
-    axes[1].legend(fontsize=6, ncol=2)
-    fig.tight_layout()
-    fig.savefig(out / "il_over_speed.png", dpi=110)
-    plt.close(fig)
-
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for i, a in enumerate(res.actuator_ids):
-        ax.semilogy(f, np.abs(res.forces[:, i]), lw=1, label=f"required |F_{a}| ({method})")
-    ax.semilogy(f, piezo.force_limit_n(res.speed_rad_s), "k--", lw=1.2, label="piezo force limit")
-    ax.set_xlabel("rotational frequency [Hz]")
-    ax.set_ylabel("force amplitude [N]")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "piezo_force.png", dpi=110)
-    plt.close(fig)
-    return [out / "il_over_speed.png", out / "piezo_force.png"]

@@ -8,7 +8,6 @@ correction strategy, and the per-resonance peak comparison.
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,9 @@ from ..balancing.quasi_steady import resonance_comparison, simulate_machine_runu
 from ..balancing.rigid_runup import simulate_rigid_runup
 from ..balancing.scenario import machine_setup, rigid_setup
 from ..config import load_config
-from ..machine import load_machine
+from ..machine import load_machine, model_supports
+from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_machine_runs,
+                                    write_rigid_runs)
 from .common import nonnegative_float
 
 NAME = "balance"
@@ -39,7 +40,7 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     cfg = load_config(args.scenario)
     args.out.mkdir(parents=True, exist_ok=True)
-    if cfg.raw("model", None) == "rigid_rotor":
+    if model_supports(cfg, "rigid_balancer"):
         return _rigid(cfg, args)
     return _machine(load_machine(args.scenario), args)
 
@@ -58,10 +59,7 @@ def _rigid(cfg, args) -> int:
                            np.linalg.norm(bal.b_hat[:, 2:] - b_true[2:], axis=1)
                            / np.linalg.norm(b_true[2:])])
     sched = setup.schedule()
-    path = args.out / "balance.npz"
-    np.savez(path, t=bal.t, output_balanced=bal.output, output_unbalanced=ref.output,
-             position=bal.position, target=bal.target, mode=bal.mode.astype(str), b_hat=bal.b_hat,
-             b_true=b_true, rel_error=err, std=bal.std, switch_times=np.array(sched.times))
+    path = write_rigid_runs(args.out / "balance.npz", bal, ref, b_true, err, sched.times)
     print(f"wrote {path}")
     print(f"switching weight W = {sched.weight:.4f}, switching instants: "
           + ", ".join(f"{t:.5f} s -> mode {m}" for t, m, _ in sched.switches))
@@ -72,34 +70,9 @@ def _rigid(cfg, args) -> int:
         p1, p2 = rec.peak(0, split)[0], rec.peak(split)[0]
         print(f"  {name:13s}: max|v| t<{split:g} s {p1 * 1e3:.3f} mm, t>={split:g} s "
               f"{p2 * 1e3:.3f} mm, RMS {rec.rms * 1e3:.3f} mm")
-    _plot_rigid(args.out / "balance.png", bal, ref, err, sched.times)
+    plot_rigid_runs(args.out / "balance.png", bal, ref, err, sched.times)
     print(f"wrote {args.out / 'balance.png'}")
     return 0
-
-
-def _plot_rigid(path, bal, ref, err, switches) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
-    ax[0].plot(ref.t, np.abs(ref.output) * 1e3, lw=0.8, label="no balancing")
-    ax[0].plot(bal.t, np.abs(bal.output) * 1e3, lw=0.8, label="balanced")
-    ax[0].set_ylabel("|v| at output point [mm]")
-    ax[1].semilogy(bal.t[1:], err[1:, 0] * 100, label="b1, b2 (force)")
-    ax[1].semilogy(bal.t[1:], err[1:, 1] * 100, label="b3, b4 (moment)")
-    ax[1].set_ylabel("estimate error [%]")
-    ax[2].plot(bal.t, bal.position.real * 1e3, label="w_x")
-    ax[2].plot(bal.t, bal.position.imag * 1e3, label="w_z")
-    ax[2].set_ylabel("balancer position [mm]")
-    ax[2].set_xlabel("time [s]")
-    for a in ax:
-        for t in switches:
-            a.axvline(t, color="k", ls="--", lw=0.7)
-        a.legend(loc="upper left", fontsize=8)
-        a.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _machine(machine, args) -> int:
@@ -115,43 +88,13 @@ def _machine(machine, args) -> int:
     table = resonance_comparison(rec.speed, none, envelopes)
     u = np.array(setup.runup.unbalance)
     err = np.abs(rec.estimate - u) / np.abs(u)
-    path = args.out / "balance.npz"
-    np.savez(path, t=rec.t, speed_rad_s=rec.speed, envelope_none=none,
-             **{f"envelope_{k}": v for k, v in envelopes.items()}, position=rec.position,
-             estimate=rec.estimate, unbalance=u, rel_error=err, std=rec.std,
-             mode=rec.mode.astype(str))
-    (args.out / "resonances.json").write_text(json.dumps(table, indent=1))
-    print(f"wrote {path} and {args.out / 'resonances.json'}")
+    path, table_path = write_machine_runs(args.out, rec, none, envelopes, u, err, table)
+    print(f"wrote {path} and {table_path}")
     print("peak objective amplitude per resonance (max over "
           + ", ".join(setup.objective.channels) + "), reduction vs no balancing [dB]:")
     for row in table:
         print(f"  {row['speed_hz']:7.2f} Hz: none {row['none']:.3e}  "
               + "  ".join(f"{k} {row[k + '_reduction_db']:+.1f}" for k in envelopes))
-    _plot_machine(args.out / "balance.png", rec, none, envelopes, err)
+    plot_machine_runs(args.out / "balance.png", rec, none, envelopes, err)
     print(f"wrote {args.out / 'balance.png'}")
     return 0
-
-
-def _plot_machine(path, rec, none, envelopes, err) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    f_hz = rec.speed / (2 * np.pi)
-    fig, ax = plt.subplots(2, 1, figsize=(9, 7))
-    ax[0].semilogy(f_hz, none, lw=0.9, label="no balancing")
-    for k, env in envelopes.items():
-        ax[0].semilogy(f_hz, env, lw=0.8, label=k)
-    ax[0].set_xlabel("rotational frequency [Hz]")
-    ax[0].set_ylabel("max bearing-housing amplitude")
-    ax[1].semilogy(rec.t, np.maximum(err[:, 0], 1e-8) * 100, label="static u_e")
-    ax[1].semilogy(rec.t, np.maximum(err[:, 1], 1e-8) * 100, label="moment u_alpha")
-    for t, _, _ in rec.events[:1]:
-        ax[1].axvline(t, color="k", ls="--", lw=0.7)
-    ax[1].set_xlabel("time [s]")
-    ax[1].set_ylabel("estimate error [%]")
-    for a in ax:
-        a.legend(fontsize=8)
-        a.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)

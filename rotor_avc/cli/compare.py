@@ -4,8 +4,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..analysis.comparison import compare_bag
-from ..reports.compare_report import ACCEPTANCE, write_report
+from ..compare.comparison import compare_bag
+from ..compare.report import ACCEPTANCE, write_report
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.comparison import compare_bag
-from ..analysis.frf import unbalance_frf
+from ..compare.comparison import compare_bag
+from ..closed_loop.frf import unbalance_frf
 from ..analysis.poles import machine_poles
 from ..errors import RotorAvcError
 from ..machine import load_machine
@@ -84,7 +84,7 @@ def analysis(out: Path) -> dict:
     for case in ANALYSIS_CASES:
         machine = load_machine(case)
         poles = {}
-        for f_hz in machine.analysis.number_list("pole_speeds_hz", [0.0]):
+        for f_hz in machine.analysis.pole_speeds_hz:
             res = machine_poles(machine, 2 * math.pi * f_hz)
             poles[f_hz] = res
             print(f"\n{case}: poles at f_r = {f_hz:g} Hz (w_F iterations "
@@ -98,8 +98,8 @@ def analysis(out: Path) -> dict:
         (case_dir / "poles.json").write_text(json.dumps(
             {str(f): {"poles": r.table(), "stable": r.stable, "w_F_history": r.history}
              for f, r in poles.items()}, indent=1))
-        rng = machine.analysis.section("frf_speed_hz")
-        speeds = np.linspace(rng.number("start"), rng.number("stop"), rng.integer("n"))
+        rng = machine.analysis.frf_speed_hz
+        speeds = np.linspace(rng.start, rng.stop, rng.n)
         frf = unbalance_frf(machine.loop, 2 * np.pi * speeds)
         write_frf_csv(frf, case_dir / "frf.csv")
         plot_frf(frf, case_dir, case)
@@ -138,7 +138,7 @@ def record(scenario: str, bag: Path, logs: Path, in_process: bool,
 
 def _record_in_process(scenario: str, bag: Path, why: str) -> Path:
     from ..recording import write_run_bag
-    from ..sim.scenario import load_scenario
+    from ..scenario import load_scenario
     print(f"{scenario}: in-process lockstep loop ({why}; identical results to the ROS graph)")
     sc = load_scenario(scenario)
     ts = sc.run(progress=True)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.frf import unbalance_frf
+from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
 from .common import speed_range_hz
@@ -28,10 +28,11 @@ def run(args) -> int:
     machine = load_machine(args.config)
     speeds_hz = args.speed_hz
     if speeds_hz is None:
-        rng = machine.analysis.section("frf_speed_hz")
-        start = rng.number("start", positive=True, unit="Hz")
-        stop = rng.number("stop", minimum=start, unit="Hz")
-        speeds_hz = np.linspace(start, stop, rng.integer("n", minimum=2))
+        rng = machine.analysis.frf_speed_hz
+        if rng is None:
+            raise machine.config.section("analysis", {}).error(
+                "frf_speed_hz", "missing", fix="add `frf_speed_hz: {start, stop, n}` or give --speed-hz")
+        speeds_hz = np.linspace(rng.start, rng.stop, rng.n)
     frf = unbalance_frf(machine.loop, 2 * np.pi * speeds_hz)
     args.out.mkdir(parents=True, exist_ok=True)
     csv_path = write_frf_csv(frf, args.out / "frf.csv")

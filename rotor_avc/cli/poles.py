@@ -28,7 +28,7 @@ def add_arguments(p) -> None:
 def run(args) -> int:
     machine = load_machine(args.config)
     if args.speed_hz is None:
-        args.speed_hz = machine.analysis.number_list("pole_speeds_hz", [0.0], min_length=1)[0]
+        args.speed_hz = machine.analysis.pole_speeds_hz[0]
     result = machine_poles(machine, 2 * math.pi * args.speed_hz)
     rows = result.table()
     if args.json:

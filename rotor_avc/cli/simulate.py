@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import write_run_bag
-from ..sim.scenario import load_scenario
+from ..scenario import load_scenario
 
 NAME = "simulate"
 HELP = ("Run a simulation scenario (machine config + `simulation:` section) in the in-process "

@@ -2,7 +2,6 @@
 (seed 001 Sec. 4, Figs. 5-13), as CSV and PNG."""
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ConfigError
 from ..machine import load_machine
+from ..reports.gain_study_files import write_gain_study
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
@@ -19,9 +19,6 @@ HELP = ("Sweep a controller gain (same controller on every actuator) and write t
         "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13.")
 EXAMPLE = ("rotor-avc study sleeve_bearing_motor --feedback velocity --gains 1e4:1e6:20 "
            "--out out/study")
-
-#: paper units for the plots: (mm/s)/um for velocities per metre, N/um for forces per metre
-PLOT_SCALE = {"m/s/(m)": (1e-3, "(mm/s)/um"), "N/(m)": (1e-6, "N/um")}
 
 
 def add_arguments(p) -> None:
@@ -56,44 +53,34 @@ def _fixed(items: list[str]) -> dict[str, float]:
     return out
 
 
-def _names(sec, key: str) -> list[str] | None:
-    value = sec.raw(key, None)
-    if value is not None and not (isinstance(value, list)
-                                  and all(isinstance(v, str) for v in value)):
-        raise sec.error(key, f"must be a list of response names (got {value!r})",
-                        fix="e.g. [bearing_vz, bearing_vy, foundation_L_vy]")
-    return value
-
-
 def run(args) -> int:
     machine = load_machine(args.config)
-    sec = machine.analysis.section("study", {})
-    sec.check_keys(("excitation", "speed_rpm", "window_rpm", "peak_fraction", "gains",
-                    "resonances_of"))
-    rng = sec.section("speed_rpm")
-    speeds = np.linspace(rng.number("start", positive=True, unit="rpm"),
-                         rng.number("stop", positive=True, unit="rpm"), rng.integer("n", minimum=5))
-    gains_sec = sec.section("gains", {})
-    gains_sec.check_keys(FEEDBACK_ORDER)
-    kinds = args.feedback or [k for k in FEEDBACK_ORDER if gains_sec.has(k)]
+    study_cfg = machine.analysis.study
+    sec = machine.config.section("analysis", {}).section("study", {})
+    if study_cfg.speed_rpm is None:
+        sec.raw("speed_rpm")                                 # raises "missing" with the fix
+    rng = study_cfg.speed_rpm
+    speeds = np.linspace(rng.start, rng.stop, rng.n)
+    kinds = args.feedback or [k for k in FEEDBACK_ORDER if getattr(study_cfg.gains, k) is not None]
     if not kinds:
         raise ConfigError("--feedback", "no feedback kind given and none in analysis.study.gains",
                           fix="give --feedback velocity (and --gains)")
-    excitation = args.excitation or sec.string("excitation")
+    excitation = args.excitation or study_cfg.excitation or sec.raw("excitation")
     if machine.controllers:
         print(f"note: the config's controllers ({', '.join(machine.controllers)}) are replaced "
               "by the swept ones")
     args.out.mkdir(parents=True, exist_ok=True)
     for kind in kinds:
+        if not args.gains and getattr(study_cfg.gains, kind) is None:
+            sec.section("gains", {}).raw(kind)               # raises "missing" with the fix
         gains = (parse_vary("gain=" + args.gains, "--gains").values if args.gains
-                 else np.array(gains_sec.number_list(kind, min_length=1)))
+                 else np.array(getattr(study_cfg.gains, kind)))
         study = gain_study(machine.plant, kind, gains, speeds, excitation, args.structure,
                            args.sweep, _fixed(args.fixed),
-                           sec.number("window_rpm", 200.0, positive=True, unit="rpm"),
-                           sec.number("peak_fraction", 0.25, positive=True, maximum=1.0),
-                           _names(sec, "resonances_of"))
+                           study_cfg.window_rpm, study_cfg.peak_fraction,
+                           None if study_cfg.resonances_of is None else list(study_cfg.resonances_of))
         stem = args.out / f"{machine.plant.name}_{kind}"
-        for path in _write(study, stem, not args.no_plots):
+        for path in write_gain_study(study, stem, not args.no_plots):
             print(f"wrote {path}")
         _print_summary(study)
     return 0
@@ -112,89 +99,3 @@ def _print_summary(study: GainStudy) -> None:
             force, at = study.max_force(q)
             print(f"  max |{q}| at the largest gain: {force[-1]:.4g} {study.units[q]} "
                   f"at {at[-1]:.0f} rpm")
-
-
-def _write(study: GainStudy, stem: Path, plots: bool) -> list[Path]:
-    """``<stem>_curves.csv`` (amplitude over speed per gain), ``<stem>_summary.csv`` (per gain:
-    resonance speeds, heights, reductions, largest actuator forces) and the plots."""
-    gname = f"{study.gain_name}_{study.structure}"
-    curves = stem.with_name(stem.name + "_curves.csv")
-    with open(curves, "w", newline="") as fh:
-        w = csv.writer(fh)
-        cols = [(q, i) for q in study.curves for i in range(len(study.gains))]
-        w.writerow(["speed_rpm"] + [f"{q}_{gname}={study.gains[i]:g}" for q, i in cols])
-        for k, n in enumerate(study.speed_rpm):
-            w.writerow([f"{n:.6g}"] + [f"{study.curves[q][i, k]:.8g}" for q, i in cols])
-    summary = stem.with_name(stem.name + "_summary.csv")
-    forces = [q for q in study.curves if q.startswith("actuator")]
-    with open(summary, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([gname] + [f"{r.label}_{c}" for r in study.resonances for c in
-                              ("speed_rpm", "amplitude", "reduction_window_pct",
-                               "reduction_same_speed_pct")]
-                   + [f"{q}_max_{c}" for q in forces for c in ("amplitude", "speed_rpm")])
-        for i, gain in enumerate(study.gains):
-            row = [f"{gain:g}"]
-            for r in study.resonances:
-                row += [f"{v:.6g}" for v in (r.speed_rpm[i], r.amplitude[i],
-                                              r.reduction_window_pct[i],
-                                              r.reduction_same_speed_pct[i])]
-            for q in forces:
-                force, at = study.max_force(q)
-                row += [f"{force[i]:.6g}", f"{at[i]:.6g}"]
-            w.writerow(row)
-    return [curves, summary] + (_plot(study, stem) if plots else [])
-
-
-def _plot(study: GainStudy, stem: Path) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    title = f"{study.structure} on {study.feedback} ({study.excitation} excitation)"
-    glabel = f"{study.gain_name} [{_gain_unit(study)}]"
-    quantities = list(study.curves)
-    cols = 3
-    rows = -(-len(quantities) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False,
-                             sharex=True)
-    for ax, q in zip(axes.flat, quantities):
-        scale, unit = PLOT_SCALE.get(study.units[q], (1.0, study.units[q]))
-        for i, gain in enumerate(study.gains):
-            ax.plot(study.speed_rpm, scale * study.curves[q][i], lw=1, label=f"{gain:g}")
-        ax.set_title(q, fontsize=9)
-        ax.set_ylabel(unit, fontsize=8)
-        ax.grid(alpha=0.3)
-    for ax in axes.flat[len(quantities):]:
-        ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel("speed [rpm]")
-    axes.flat[0].legend(fontsize=6, title=glabel, title_fontsize=6)
-    fig.suptitle(f"Response over speed per gain: {title}", fontsize=10)
-    fig.tight_layout()
-    paths = [stem.with_name(stem.name + "_curves.png")]
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
-    for r in study.resonances:
-        a1.plot(study.gains, r.speed_rpm, "o-", ms=3, label=r.label)
-        a2.plot(study.gains, r.reduction_window_pct, "o-", ms=3, label=r.label)
-    a1.set_ylabel("resonance speed [rpm]")
-    a2.set_ylabel("reduction of the resonance peak [%] (+-window)")
-    for ax in (a1, a2):
-        ax.set_xlabel(glabel)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.suptitle(f"Resonance shift and reduction: {title}", fontsize=10)
-    fig.tight_layout()
-    paths.append(stem.with_name(stem.name + "_resonances.png"))
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    return paths
-
-
-def _gain_unit(study: GainStudy) -> str:
-    """SI unit of the swept gain: force per unit of the fed-back signal, times s per integral."""
-    order = FEEDBACK_ORDER[study.feedback] + {"ki": -1, "kd": 1}.get(study.gain_name, 0)
-    return {-1: "N/(m s)", 0: "N/m", 1: "N s/m", 2: "kg", 3: "kg/s"}.get(order, "SI")

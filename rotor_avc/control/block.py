@@ -13,8 +13,8 @@ with ``G_d`` the discretised ``G_c`` (:mod:`rotor_avc.control.discretize`), ``d`
 :func:`build_digital_controllers` builds one block per controlled actuator of a
 :class:`rotor_avc.machine.Machine` from its config::
 
-    control:                      # machine-wide (all optional)
-      sample_rate_hz: 5000.0      # default 5000
+    control:                      # machine-wide (all optional; rotor_avc.settings.ControlSettings)
+      sample_rate_hz: 5000.0
       method: tustin              # tustin | zoh | foh
       prewarp_hz: 100.0           # tustin only, below Nyquist
     controllers:
@@ -28,13 +28,9 @@ import math
 from collections import deque
 
 from ..errors import ConfigError, ModelError
-from .discretize import METHODS, DiscreteTf, check_period, discretize_controller
+from .discretize import DiscreteTf, check_period, discretize_controller
 from .filter import IirFilter
 from .limits import ANTI_WINDUP, OutputLimits, check_anti_windup, limited_step
-
-DEFAULT_SAMPLE_RATE_HZ = 5000.0
-#: keys of the machine config's top-level ``control:`` section
-CONTROL_KEYS = ("sample_rate_hz", "method", "prewarp_hz")
 
 
 class DigitalController:
@@ -143,30 +139,23 @@ class DigitalController:
 
 
 # -- from a machine config ---------------------------------------------------------------------
-def control_settings(machine, sample_period_s: float | None = None):
-    """``(T, method, prewarp_hz)`` from the config's ``control:`` section (``T`` overridable)."""
-    sec = machine.config.section("control", {})
-    sec.check_keys(CONTROL_KEYS)
-    if sample_period_s is None:
-        rate = sec.number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ, positive=True, unit="Hz")
-        sample_period_s = 1.0 / rate
-    T = check_period(sample_period_s)
-    method = sec.choice("method", METHODS, default="tustin")
-    prewarp = sec.number("prewarp_hz", None, positive=True, unit="Hz") if sec.has("prewarp_hz") else None
-    if prewarp is not None and method != "tustin":
-        raise sec.error("prewarp_hz", f"applies to method tustin only (method is {method})",
-                        fix="drop prewarp_hz or set method: tustin")
+def sampling(machine, sample_period_s: float | None = None):
+    """``(T, method, prewarp_hz)`` from the machine's ``control:`` settings (``T`` overridable)."""
+    ctl = machine.control
+    T = check_period(1.0 / ctl.rate_hz if sample_period_s is None else sample_period_s)
+    prewarp = ctl.prewarp_hz
     if prewarp is not None and prewarp >= 0.5 / T:
-        raise sec.error("prewarp_hz", f"{prewarp:g} Hz is at or above the Nyquist frequency "
-                        f"{0.5 / T:g} Hz of the {1 / T:g} Hz sample rate",
-                        fix="lower prewarp_hz or raise sample_rate_hz")
-    return T, method, prewarp
+        raise machine.config.section("control").error(
+            "prewarp_hz", f"{prewarp:g} Hz is at or above the Nyquist frequency "
+            f"{0.5 / T:g} Hz of the {1 / T:g} Hz sample rate",
+            fix="lower prewarp_hz or raise sample_rate_hz")
+    return T, ctl.method, prewarp
 
 
 def build_digital_controllers(machine, sample_period_s: float | None = None
                               ) -> dict[str, DigitalController]:
     """One :class:`DigitalController` per controlled actuator of ``machine`` (config order)."""
-    T, method, prewarp = control_settings(machine, sample_period_s)
+    T, method, prewarp = sampling(machine, sample_period_s)
     feet = machine.config.section("controllers", {})
     blocks = {}
     for act_id, ctrl in machine.controllers.items():

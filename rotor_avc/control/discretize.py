@@ -25,9 +25,8 @@ import numpy as np
 import scipy.signal
 
 from ..errors import ModelError
+from ..settings import DISCRETIZATION_METHODS as METHODS
 from .spec import ContinuousController
-
-METHODS = ("tustin", "zoh", "foh")
 
 
 @dataclass(frozen=True, eq=False)

@@ -24,11 +24,15 @@ import math
 
 import numpy as np
 
+from ..blocks import SnapshotState
 from ..errors import ModelError
 
 
-class SynchronousForceGenerator:
-    """``reset()`` / ``step(shaft_angle_rad, speed_rad_s) -> forces [N]`` (module docstring)."""
+class SynchronousForceGenerator(SnapshotState):
+    """``reset()`` / ``step(shaft_angle_rad, speed_rad_s) -> forces [N]`` (module docstring);
+    a :class:`rotor_avc.blocks.Synchronous` block (state: the last force, whether in range)."""
+
+    STATE = ("force_n", "in_range")
 
     def __init__(self, speed_table_rad_s, forces_per_unit, unbalance_kg_m: complex,
                  actuator_ids, *, sample_period_s: float | None = None, delay_samples: int = 0):

@@ -31,9 +31,10 @@ shaft points ``shaft_L<k>_<d>`` (bearing-1 side, ``z = -l_sen``) and ``shaft_R<k
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..config import Section
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 PLANES = ("y", "x")
@@ -45,12 +46,6 @@ COORDS = PLANE_COORDS["y"] + PLANE_COORDS["x"]
 ACTUATOR_IDS = ("y1", "x1", "y2", "x2")
 #: ``d(z)/d(theta)`` of the shaft motion in each plane: ``y = eps - z theta_x``, ``x = eps + z theta_y``
 LEVER_SIGN = {"y": -1.0, "x": 1.0}
-#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS); ``unbalance``,
-#: ``piezo`` and ``feedforward`` are read by :func:`unbalance_kg_m`, rotor_avc.models.piezo and
-#: rotor_avc.analysis.active_bearing_ff
-MODEL_KEYS = ("rotor", "unbalance", "active_bearings", "sensors", "piezo", "feedforward")
-PLANE_KEYS = ("actuator_mass_kg", "k_b_n_per_m", "c_b_n_s_per_m", "k_ac_n_per_m", "c_ac_n_s_per_m",
-              "k_sp_n_per_m", "c_sp_n_s_per_m", "k_pre_n_per_m", "c_pre_n_s_per_m")
 
 
 def index(coord: str) -> int:
@@ -103,80 +98,55 @@ def shaft_mass_properties(density: float, diameter: float, length: float) -> tup
     return m, m * (3 * r**2 + length**2) / 12, m * r**2 / 2
 
 
-def unbalance_kg_m(cfg: Section) -> float:
-    """The configured unbalance ``m_o e`` [kg m] (eqs. 16-17)."""
-    sec = cfg.section("unbalance")
-    sec.check_keys(("mass_kg", "eccentricity_m"))
-    return (sec.number("mass_kg", positive=True, unit="kg")
-            * sec.number("eccentricity_m", positive=True, unit="m"))
+@dataclass(frozen=True)
+class BearingPlane:
+    """One bearing in one plane (SI units): actuator mass, and stiffness ``k_*`` [N/m] and
+    damping ``c_*`` [N s/m] of the ball bearing (b), piezo actuator (ac), spring (sp) and rubber
+    grommet (pre), eqs. (1)-(5)."""
+
+    m_as: float
+    k_b: float
+    c_b: float
+    k_ac: float
+    c_ac: float
+    k_sp: float
+    c_sp: float
+    k_pre: float
+    c_pre: float
 
 
-def sensor_offsets(cfg: Section) -> list[tuple[float, float]]:
-    """Sensor pairs ``(l1_sen, l2_sen)`` [m from the centre of mass], validated on the shaft."""
-    sec = cfg.section("sensors")
-    sec.check_keys(("bearing1_side_m", "bearing2_side_m"))
-    half = cfg.section("rotor").number("length_m", positive=True, unit="m") / 2
-    sides = {}
-    for key in ("bearing1_side_m", "bearing2_side_m"):
-        values = sec.number_list(key, min_length=1)
-        if any(not 0.0 < v <= half for v in values):
-            raise sec.error(key, f"every offset must lie on the shaft, 0 < l_sen <= {half} m "
-                                 f"(got {values})",
-                            fix="give distances from the centre of mass (positive, in m)")
-        sides[key] = values
-    left, right = sides["bearing1_side_m"], sides["bearing2_side_m"]
-    if len(left) != len(right):
-        raise sec.error("bearing2_side_m", f"has {len(right)} entries, bearing1_side_m has "
-                                           f"{len(left)}", fix="give the sensors in pairs (eq. 11)")
-    return list(zip(left, right))
+@dataclass(frozen=True)
+class ActiveBearingParams:
+    """The seed-002 rotor on two active bearings (SI units)."""
+
+    density_kg_m3: float
+    diameter_m: float
+    length_m: float
+    bearing_z_m: dict[str, float]                 # bearing -> axial position (from the centre)
+    tilt_stiffness_n_m_per_rad: float
+    housing_mass_kg: dict[str, float]             # bearing -> housing mass
+    planes: dict[tuple[str, str], BearingPlane]   # (bearing, plane) -> its parameters
+    sensor_pairs: tuple[tuple[float, float], ...]  # (l1_sen, l2_sen) from the centre of mass
 
 
-def _plane_params(sec: Section) -> dict[str, float]:
-    sec.check_keys(PLANE_KEYS)
-    out = {"m_as": sec.number("actuator_mass_kg", positive=True, unit="kg")}
-    for key in PLANE_KEYS[1:]:
-        positive = key in ("k_b_n_per_m", "k_ac_n_per_m")
-        unit_txt = "N/m" if key.startswith("k_") else "N s/m"
-        out[key.split("_n_")[0]] = sec.number(key, positive=positive, nonnegative=True, unit=unit_txt)
-    return out
-
-
-def build(cfg: Section) -> LinearPlant:
-    """Build the seed-002 plant from a validated config (see ``config/active_bearing.yaml``)."""
-    rotor = cfg.section("rotor")
-    rotor.check_keys(("density_kg_m3", "diameter_m", "length_m", "bearing_arm_m",
-                      "tilt_stiffness_n_m_per_rad"))
-    length = rotor.number("length_m", positive=True, unit="m")
-    m_R, I_R, I_p = shaft_mass_properties(rotor.number("density_kg_m3", positive=True, unit="kg/m^3"),
-                                          rotor.number("diameter_m", positive=True, unit="m"), length)
-    arms = rotor.section("bearing_arm_m")
-    arms.check_keys(BEARINGS)
-    z_bearing = {}
-    for i, sign in zip(BEARINGS, (-1.0, 1.0)):
-        arm = arms.number(i, positive=True, unit="m")
-        if arm > length / 2:
-            raise arms.error(i, f"bearing {i} at {arm} m from the centre of mass is off the "
-                                f"{length} m shaft", fix=f"give a distance <= {length / 2} m")
-        z_bearing[i] = sign * arm
-    k_r = rotor.number("tilt_stiffness_n_m_per_rad", nonnegative=True, unit="N m/rad")
-
-    brg = cfg.section("active_bearings")
-    brg.check_keys(BEARINGS)
+def build(p: ActiveBearingParams, name: str, damping_floor_rad_s: float,
+          config: dict | None = None) -> LinearPlant:
+    """The seed-002 plant from its parameters (rotor_avc.model_config.active_bearing reads them
+    from a config); ``config`` is kept on the plant for the record."""
+    m_R, I_R, I_p = shaft_mass_properties(p.density_kg_m3, p.diameter_m, p.length_m)
+    z_bearing, k_r = p.bearing_z_m, p.tilt_stiffness_n_m_per_rad
     n = len(COORDS)
     M, K, C = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
     for i in BEARINGS:
-        sec = brg.section(i)
-        sec.check_keys(("housing_mass_kg",) + PLANES)
-        m_bh = sec.number("housing_mass_kg", positive=True, unit="kg")
         for d in PLANES:
-            p = _plane_params(sec.section(d))
+            pl = p.planes[(i, d)]
             bh, ac = basis(f"eps_bh_{d}_{i}"), basis(f"eps_ac_{d}_{i}")
-            M[index(f"eps_bh_{d}_{i}"), index(f"eps_bh_{d}_{i}")] = m_bh
-            M[index(f"eps_ac_{d}_{i}"), index(f"eps_ac_{d}_{i}")] = p["m_as"]
-            for w, k, c in ((shaft_row(z_bearing[i], d) - bh, p["k_b"], p["c_b"]),
-                            (bh - ac, p["k_ac"], p["c_ac"]),
-                            (bh, p["k_pre"], p["c_pre"]),
-                            (ac, p["k_sp"], p["c_sp"])):
+            M[index(f"eps_bh_{d}_{i}"), index(f"eps_bh_{d}_{i}")] = p.housing_mass_kg[i]
+            M[index(f"eps_ac_{d}_{i}"), index(f"eps_ac_{d}_{i}")] = pl.m_as
+            for w, k, c in ((shaft_row(z_bearing[i], d) - bh, pl.k_b, pl.c_b),
+                            (bh - ac, pl.k_ac, pl.c_ac),
+                            (bh, pl.k_pre, pl.c_pre),
+                            (ac, pl.k_sp, pl.c_sp)):
                 K += k * np.outer(w, w)
                 C += c * np.outer(w, w)
     for d in PLANES:
@@ -194,7 +164,7 @@ def build(cfg: Section) -> LinearPlant:
             outputs.append(Output(f"housing_{i}_{d}", basis(f"eps_bh_{d}_{i}"), 0, "m"))
             outputs.append(Output(f"stroke_{i}_{d}", basis(f"eps_ac_{d}_{i}") - basis(f"eps_bh_{d}_{i}"),
                                   0, "m"))
-    inverses = [np.linalg.inv(sensor_transform(*pair)) for pair in sensor_offsets(cfg)]  # q' = Pi^-1 q
+    inverses = [np.linalg.inv(sensor_transform(*pair)) for pair in p.sensor_pairs]  # q' = Pi^-1 q
     for s, side in enumerate("LR"):
         for k, inv in enumerate(inverses, start=1):
             outputs += [Output(f"shaft_{side}{k}_{d}", inv[6 * b + s], 0, "m")
@@ -202,15 +172,14 @@ def build(cfg: Section) -> LinearPlant:
 
     actuators = tuple(Actuator(a, basis(f"eps_ac_{a[0]}_{a[1]}"), basis(f"eps_bh_{a[0]}_{a[1]}"), a[0])
                       for a in ACTUATOR_IDS)
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
-        name=cfg.string("name", "active_bearing"),
+        name=name,
         coords=COORDS,
         mass=M, stiffness=K, loss_damping=np.zeros_like(M), viscous_damping=C,
         gyroscopic=G1, circulatory=np.zeros_like(M),
         actuators=actuators,
         excitations=(Excitation("unbalance", "kg*m", p2),),
         outputs=tuple(outputs),
-        damping_floor_rad_s=2 * np.pi * floor,
-        config=cfg.data,
+        damping_floor_rad_s=damping_floor_rad_s,
+        config=config or {},
     )

@@ -23,9 +23,10 @@ to the six machine coordinates, ``q = T_r q6`` (digest 3.10); outputs are expand
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..config import Section
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 FEET = ("DL", "DR", "NL", "NR")
@@ -33,8 +34,6 @@ DIRECTIONS = ("z", "y", "x")
 MACHINE_COORDS = ("z_s", "y_s", "x_s", "phi_sz", "phi_sy", "phi_sx")
 COORDS = MACHINE_COORDS + tuple(f"{d}_f{f}" for d in DIRECTIONS for f in FEET)
 MOUNTS = ("actuator", "stiff_element", "none")
-#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
-MODEL_KEYS = ("machine", "foundation", "mounting", "elements", "feet")
 
 
 def foundation_index(direction: str, foot: str) -> int:
@@ -54,72 +53,49 @@ def foot_kinematic_rows(a_D: float, a_N: float, b_L: float, b_R: float, h: float
     return rows
 
 
-def _xyz(sec: Section, key: str, *, positive: bool, unit: str) -> dict[str, float]:
-    sub = sec.section(key)
-    sub.check_keys(DIRECTIONS)
-    return {d: sub.number(d, positive=positive, nonnegative=True, unit=unit) for d in DIRECTIONS}
+@dataclass(frozen=True)
+class FootElement:
+    """An actuator or stiff element between a foot and the foundation (SI units)."""
+
+    armature_mass_kg: float                  # moves with the machine foot
+    stator_mass_kg: float                    # moves with the foundation point
+    stiffness_n_per_m: dict[str, float]      # per direction z, y, x
+    tan_delta: float
 
 
-def _loss_factor(sec: Section, key: str = "tan_delta") -> float:
-    value = sec.number(key, nonnegative=True)
-    if value >= 0.2:
-        raise sec.error(key, f"loss factor {value} is outside the model's range (eq. 44 needs "
-                             "tan(delta) < 0.2)", fix="give the loss factor tan(delta), not a percentage")
-    return value
+@dataclass(frozen=True)
+class FootMountParams:
+    """The seed-000 machine, its feet and the foundation (SI units; digest 2)."""
+
+    stator_mass_kg: float
+    rotor_mass_kg: float
+    stator_inertia_kg_m2: dict[str, float]   # about z, y, x
+    rotor_polar_inertia_kg_m2: float
+    rotor_transverse_inertia_kg_m2: float
+    foot_height_m: float
+    foot_lateral_arm_m: dict[str, float]     # L, R
+    foot_axial_arm_m: dict[str, float]       # D, N
+    bearing_axial_position_m: dict[str, float]   # D, N
+    foundation_mass_kg: float
+    foundation_tan_delta: float
+    foundation_stiffness_n_per_m: dict[str, float]
+    mounting: str                            # elements | direct
+    mounts: dict[str, str]                   # foot -> actuator | stiff_element | none
+    elements: dict[str, FootElement]         # kind -> its element
 
 
-def _element(sec: Section) -> dict:
-    sec.check_keys(("armature_mass_kg", "stator_mass_kg", "stiffness_n_per_m", "tan_delta"))
-    return {
-        "m_aa": sec.number("armature_mass_kg", nonnegative=True, unit="kg"),
-        "m_as": sec.number("stator_mass_kg", nonnegative=True, unit="kg"),
-        "c": _xyz(sec, "stiffness_n_per_m", positive=True, unit="N/m"),
-        "tan_delta": _loss_factor(sec),
-    }
-
-
-def build(cfg: Section) -> LinearPlant:
-    """Build the seed-000 plant from a validated config (see ``config/foot_mount_*.yaml``)."""
-    mach = cfg.section("machine")
-    mach.check_keys(("stator_mass_kg", "rotor_mass_kg", "stator_inertia_kg_m2",
-                     "rotor_polar_inertia_kg_m2", "rotor_transverse_inertia_kg_m2",
-                     "foot_height_m", "foot_lateral_arm_m", "foot_axial_arm_m",
-                     "bearing_axial_position_m"))
-    m_s = mach.number("stator_mass_kg", positive=True, unit="kg")
-    m_r = mach.number("rotor_mass_kg", positive=True, unit="kg")
-    theta_s = _xyz(mach, "stator_inertia_kg_m2", positive=True, unit="kg m^2")
-    theta_rx = mach.number("rotor_polar_inertia_kg_m2", nonnegative=True, unit="kg m^2")
-    theta_rzy = mach.number("rotor_transverse_inertia_kg_m2", nonnegative=True, unit="kg m^2")
-    h = mach.number("foot_height_m", nonnegative=True, unit="m")
-    lat = mach.section("foot_lateral_arm_m")
-    lat.check_keys(("L", "R"))
-    ax = mach.section("foot_axial_arm_m")
-    ax.check_keys(("D", "N"))
-    brg = mach.section("bearing_axial_position_m")
-    brg.check_keys(("D", "N"))
-    b_L, b_R = lat.number("L", positive=True, unit="m"), lat.number("R", positive=True, unit="m")
-    a_D, a_N = ax.number("D", positive=True, unit="m"), ax.number("N", positive=True, unit="m")
-    l_D, l_N = brg.number("D", nonnegative=True, unit="m"), brg.number("N", nonnegative=True, unit="m")
-
-    fnd = cfg.section("foundation")
-    fnd.check_keys(("mass_kg", "tan_delta", "stiffness_n_per_m"))
-    m_f = fnd.number("mass_kg", positive=True, unit="kg")
-    tan_f = _loss_factor(fnd)
-    c_f = _xyz(fnd, "stiffness_n_per_m", positive=True, unit="N/m")
-
-    mounting = cfg.choice("mounting", ("elements", "direct"))
-    feet_sec = cfg.section("feet", {}) if mounting == "direct" else cfg.section("feet")
-    feet_sec.check_keys(FEET)
-    mounts = {f: feet_sec.choice(f, MOUNTS, default="none") for f in FEET}
-    if mounting == "direct" and any(m != "none" for m in mounts.values()):
-        raise cfg.error("feet", "mounting: direct ties every foot rigidly to the foundation, so "
-                                "no foot can carry an element",
-                        fix="set every foot to `none` or use `mounting: elements`")
-    elements_sec = cfg.section("elements", {})
-    elements_sec.check_keys(("actuator", "stiff_element"))
-    elements = {}
-    for kind in set(mounts.values()) - {"none"}:
-        elements[kind] = _element(elements_sec.section(kind))
+def build(p: FootMountParams, name: str, damping_floor_rad_s: float, config: dict | None = None
+          ) -> LinearPlant:
+    """The seed-000 plant from its parameters (rotor_avc.model_config.foot_mount_3d reads them
+    from a config); ``config`` is kept on the plant for the record."""
+    m_s, m_r = p.stator_mass_kg, p.rotor_mass_kg
+    theta_s, theta_rx = p.stator_inertia_kg_m2, p.rotor_polar_inertia_kg_m2
+    theta_rzy, h = p.rotor_transverse_inertia_kg_m2, p.foot_height_m
+    b_L, b_R = p.foot_lateral_arm_m["L"], p.foot_lateral_arm_m["R"]
+    a_D, a_N = p.foot_axial_arm_m["D"], p.foot_axial_arm_m["N"]
+    l_D, l_N = p.bearing_axial_position_m["D"], p.bearing_axial_position_m["N"]
+    m_f, tan_f, c_f = p.foundation_mass_kg, p.foundation_tan_delta, p.foundation_stiffness_n_per_m
+    mounting, mounts, elements = p.mounting, p.mounts, p.elements
 
     rows = foot_kinematic_rows(a_D, a_N, b_L, b_R, h)
     n = 18
@@ -132,18 +108,18 @@ def build(cfg: Section) -> LinearPlant:
         el = elements.get(mounts[foot])
         for d in DIRECTIONS:
             k = foundation_index(d, foot)
-            M[k, k] += m_f + (el["m_as"] if el else 0.0)
+            M[k, k] += m_f + (el.stator_mass_kg if el else 0.0)
             C[k, k] += c_f[d]
             D_eta[k, k] += c_f[d] * tan_f
             if el is None:
                 continue
             r = rows[(foot, d)]
-            M[:6, :6] += el["m_aa"] * np.outer(r, r)
+            M[:6, :6] += el.armature_mass_kg * np.outer(r, r)
             w = np.zeros(n)
             w[:6] = r
             w[k] = -1.0
-            C += el["c"][d] * np.outer(w, w)
-            D_eta += el["c"][d] * el["tan_delta"] * np.outer(w, w)
+            C += el.stiffness_n_per_m[d] * np.outer(w, w)
+            D_eta += el.stiffness_n_per_m[d] * el.tan_delta * np.outer(w, w)
     G1 = np.zeros((n, n))
     G1[3, 4], G1[4, 3] = theta_rx, -theta_rx
     p_e = np.zeros(n, complex)
@@ -184,16 +160,15 @@ def build(cfg: Section) -> LinearPlant:
         out_rows = [(name, r @ T) for name, r in out_rows]
         sensor = {foot: r @ T for foot, r in sensor.items()}
         coords = MACHINE_COORDS
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
-        name=cfg.string("name", "foot_mount_3d"),
+        name=name,
         coords=coords,
         mass=M, stiffness=C, loss_damping=D_eta, viscous_damping=np.zeros_like(M),
         gyroscopic=G1, circulatory=np.zeros_like(M),
         actuators=tuple(Actuator(foot, P, sensor[foot], "z") for foot, P in actuators),
         excitations=(Excitation("static", "kg*m", p_e), Excitation("moment", "kg*m^2", p_alpha)),
         outputs=tuple(Output(name, r, 1, "m/s") for name, r in out_rows),
-        damping_floor_rad_s=2 * np.pi * floor,
-        config=cfg.data,
+        damping_floor_rad_s=damping_floor_rad_s,
+        config=config or {},
         force_points=tuple((foot, "z") for foot in FEET),
     )

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
 from ..errors import ModelError
 
 
@@ -81,19 +80,3 @@ class PiezoStack:
         limit = self.force_limit_n(speed_rad_s)
         with np.errstate(divide="ignore"):
             return np.minimum(1.0, np.where(peak > 0, limit / peak, np.inf))
-
-
-def piezo_from_config(cfg: Section) -> PiezoStack:
-    """The ``piezo:`` section of a machine config (one stack type for every actuator)."""
-    sec = cfg.section("piezo")
-    sec.check_keys(("free_stroke_m", "blocked_force_n", "bandwidth_hz", "max_voltage_v",
-                    "min_voltage_v"))
-    max_v = sec.number("max_voltage_v", positive=True, unit="V")
-    min_v = sec.number("min_voltage_v", 0.0, unit="V")
-    if min_v >= max_v:
-        raise sec.error("min_voltage_v", f"{min_v} V is not below max_voltage_v {max_v} V",
-                        fix="give the drive range as min_voltage_v < max_voltage_v")
-    return PiezoStack(free_stroke_m=sec.number("free_stroke_m", positive=True, unit="m"),
-                      blocked_force_n=sec.number("blocked_force_n", positive=True, unit="N"),
-                      bandwidth_hz=sec.number("bandwidth_hz", positive=True, unit="Hz"),
-                      max_voltage_v=max_v, min_voltage_v=min_v)

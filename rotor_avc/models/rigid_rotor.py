@@ -29,12 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
 from .plant import Excitation, LinearPlant, Output
 
 COORDS = ("R_X", "R_Z", "theta", "psi")
-#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
-MODEL_KEYS = ("rotor", "bearings", "output")
 
 
 @dataclass(frozen=True)
@@ -73,37 +70,15 @@ class RigidRotor:
         return self.mass_kg * axial_m / self.I_t
 
 
-def rotor_from_config(cfg: Section) -> RigidRotor:
-    """Read ``rotor``, ``bearings`` and ``output`` of a ``model: rigid_rotor`` config."""
-    rot = cfg.section("rotor")
-    rot.check_keys(("length_m", "radius_m", "density_kg_m3", "gyroscopic"))
-    L = rot.number("length_m", positive=True, unit="m")
-    r = rot.number("radius_m", positive=True, unit="m")
-    rho = rot.number("density_kg_m3", positive=True, unit="kg/m^3")
-    gyro = rot.raw("gyroscopic", False)
-    if not isinstance(gyro, bool):
-        raise rot.error("gyroscopic", f"must be true or false (got {gyro!r})")
-    brg = cfg.section("bearings")
-    brg.check_keys(("stiffness_n_per_m", "damping_n_s_per_m"))
-    k = brg.number("stiffness_n_per_m", positive=True, unit="N/m")
-    c = brg.number("damping_n_s_per_m", nonnegative=True, unit="N s/m")
-    out = cfg.section("output")
-    out.check_keys(("axial_position_m",))
-    l_s = out.number("axial_position_m", unit="m")
-    m = rho * np.pi * r**2 * L
-    return RigidRotor(mass_kg=m, I_t=m * (3 * r**2 + L**2) / 12, I_p=m * r**2 / 2, length_m=L,
-                      stiffness_n_per_m=k, damping_n_s_per_m=c, output_axial_m=l_s,
-                      gyroscopic=gyro)
-
-
 def axis_point_row(axial_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Rows of ``X`` and ``Z`` of the spin-axis point at ``y = axial_m`` (digest 2)."""
     return np.array([1.0, 0, 0, -axial_m]), np.array([0, 1.0, axial_m, 0])
 
 
-def build(cfg: Section) -> LinearPlant:
-    """The seed-004 rotor as a LinearPlant (see the module docstring)."""
-    rot = rotor_from_config(cfg)
+def build(rot: RigidRotor, name: str, damping_floor_rad_s: float, config: dict | None = None
+          ) -> LinearPlant:
+    """The seed-004 rotor as a LinearPlant (see the module docstring); ``config`` is kept on the
+    plant for the record."""
     k, c, L = rot.stiffness_n_per_m, rot.damping_n_s_per_m, rot.length_m
     M = np.diag([rot.mass_kg, rot.mass_kg, rot.I_t, rot.I_t])
     C = np.diag([2 * k, 2 * k, k * L**2 / 2, k * L**2 / 2])
@@ -112,13 +87,13 @@ def build(cfg: Section) -> LinearPlant:
     if rot.gyroscopic:
         G1[2, 3], G1[3, 2] = -rot.I_p, rot.I_p
     outputs = []
-    for name, y in (("output", rot.output_axial_m), ("bearing_A", -L / 2), ("bearing_B", L / 2)):
+    for point, y in (("output", rot.output_axial_m), ("bearing_A", -L / 2), ("bearing_B", L / 2)):
         row_x, row_z = axis_point_row(y)
-        outputs += [Output(f"{name}_x", row_x, 0, "m"), Output(f"{name}_z", row_z, 0, "m")]
+        outputs += [Output(f"{point}_x", row_x, 0, "m"), Output(f"{point}_z", row_z, 0, "m")]
     return LinearPlant(
-        name=cfg.string("name", "rigid_rotor"), coords=COORDS, mass=M, stiffness=C,
+        name=name, coords=COORDS, mass=M, stiffness=C,
         loss_damping=np.zeros((4, 4)), viscous_damping=D_v, gyroscopic=G1,
         circulatory=np.zeros((4, 4)), actuators=(),
         excitations=(Excitation("static", "kg*m", np.array([1.0, 1j, 0, 0])),
                      Excitation("moment", "kg*m^2", np.array([0, 0, 1j, -1.0]))),
-        outputs=tuple(outputs), damping_floor_rad_s=1.0, config=cfg.data)
+        outputs=tuple(outputs), damping_floor_rad_s=damping_floor_rad_s, config=config or {})

@@ -26,15 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
 from .plant import Actuator, Excitation, LinearPlant, Output
 
 COORDS = ("z_s", "z_w", "y_s", "y_w", "phi_s", "z_v", "z_b", "y_v", "y_b")
 ROTOR_SIDE = ("z_w", "y_w", "z_v", "z_b", "y_v", "y_b")
-#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS); ``variants``
-#: and ``studies`` are read by rotor_avc.analysis.stability_study
-MODEL_KEYS = ("stator", "rotor", "bearings", "housings", "foundation", "variants", "studies")
-FOUNDATION_KINDS = ("soft", "rigid")
 
 
 @dataclass(frozen=True)
@@ -61,66 +56,12 @@ class RotorParams:
     tan_f: float
 
 
-def _loss_factor(sec: Section) -> float:
-    value = sec.number("tan_delta", nonnegative=True)
-    if value >= 1.0:
-        raise sec.error("tan_delta", f"loss factor {value} is not a loss factor tan(delta) < 1",
-                        fix="give tan(delta) (e.g. 0.04), not a percentage")
-    return value
-
-
-def _zy(sec: Section, key: str, unit: str) -> tuple[float, float]:
-    sub = sec.section(key)
-    sub.check_keys(("z", "y"))
-    return sub.number("z", positive=True, unit=unit), sub.number("y", positive=True, unit=unit)
-
-
-def read_params(cfg: Section) -> RotorParams:
-    """Validate and read the config sections ``stator``, ``rotor``, ``bearings``, ``housings``,
-    ``foundation`` (see ``config/roller_bearing_stability.yaml``)."""
-    st = cfg.section("stator")
-    st.check_keys(("mass_kg", "roll_inertia_kg_m2", "cog_height_m", "foot_half_distance_m"))
-    ro = cfg.section("rotor")
-    ro.check_keys(("mass_kg", "shaft_stiffness_n_per_m", "tan_delta", "journal_mass_kg"))
-    br = cfg.section("bearings")
-    br.check_keys(("stiffness_n_per_m",))
-    ho = cfg.section("housings")
-    ho.check_keys(("mass_kg", "stiffness_n_per_m", "tan_delta"))
-    fo = cfg.section("foundation")
-    fo.check_keys(("kind", "stiffness_n_per_m", "tan_delta"))
-    rigid = fo.choice("kind", FOUNDATION_KINDS) == "rigid"
-    c_rz, c_ry = _zy(br, "stiffness_n_per_m", "N/m")
-    c_bz, c_by = _zy(ho, "stiffness_n_per_m", "N/m")
-    if rigid:       # the foundation's stiffness and damping do not enter (digest 3.3)
-        c_fz = c_fy = tan_f = 0.0
-    else:
-        (c_fz, c_fy), tan_f = _zy(fo, "stiffness_n_per_m", "N/m"), _loss_factor(fo)
-    return RotorParams(
-        m_s=st.number("mass_kg", positive=True, unit="kg"),
-        theta_sx=st.number("roll_inertia_kg_m2", positive=True, unit="kg m^2"),
-        h=st.number("cog_height_m", nonnegative=True, unit="m"),
-        b=st.number("foot_half_distance_m", positive=True, unit="m"),
-        m_w=ro.number("mass_kg", positive=True, unit="kg"),
-        c=ro.number("shaft_stiffness_n_per_m", positive=True, unit="N/m"),
-        tan_i=_loss_factor(ro),
-        m_v=ro.number("journal_mass_kg", positive=True, unit="kg"),
-        c_rz=c_rz, c_ry=c_ry,
-        m_b=ho.number("mass_kg", positive=True, unit="kg"),
-        c_bz=c_bz, c_by=c_by, tan_b=_loss_factor(ho),
-        rigid=rigid, c_fz=c_fz, c_fy=c_fy, tan_f=tan_f)
-
-
 def eq14_whirl_rad_s(p: RotorParams) -> float:
     """Start value of the whirl-frequency iteration, eq. (14): the rotor mass on the series chain
     shaft - bearings - housings of the (assumed softer) horizontal direction, rigidly mounted and
     undamped: ``sqrt(c_total / m_w)``, ``1/c_total = 1/c + 1/(2 c_ry) + 1/(2 c_by)``."""
     c_total = 1.0 / (1.0 / p.c + 1.0 / (2.0 * p.c_ry) + 1.0 / (2.0 * p.c_by))
     return float(np.sqrt(c_total / p.m_w))
-
-
-def whirl_start_rad_s(cfg: Section) -> float:
-    """The model's start value of the whirl-frequency iteration (eq. 14) for a config."""
-    return eq14_whirl_rad_s(read_params(cfg))
 
 
 def _unit(name: str) -> np.ndarray:
@@ -156,9 +97,10 @@ def matrices(p: RotorParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     return M, C, D_eta, N_eta
 
 
-def build(cfg: Section) -> LinearPlant:
-    """Build the seed-003 plant from a validated config (``config/roller_bearing_stability.yaml``)."""
-    p = read_params(cfg)
+def build(p: RotorParams, name: str, damping_floor_rad_s: float, config: dict | None = None
+          ) -> LinearPlant:
+    """The seed-003 plant from its parameters (rotor_avc.model_config.roller_bearing_rotor reads
+    them from a config); ``config`` is kept on the plant for the record."""
     M, C, D_eta, N_eta = matrices(p)
     e = {name: _unit(name) for name in COORDS}
     foot = {"L": e["z_s"] - p.b * e["phi_s"], "R": e["z_s"] + p.b * e["phi_s"]}
@@ -176,9 +118,8 @@ def build(cfg: Section) -> LinearPlant:
             actuators.append(Actuator(fid, row, row, "z"))
         outputs += [Output("foot_ay", foot_y, 2, "m/s^2"), Output("foot_vy", foot_y, 1, "m/s")]
     ix = np.ix_(keep, keep)
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
-        name=cfg.string("name", "roller_bearing_rotor"),
+        name=name,
         coords=tuple(COORDS[i] for i in keep),
         mass=M[ix], stiffness=C[ix], loss_damping=D_eta[ix],
         viscous_damping=np.zeros((len(keep), len(keep))),
@@ -187,6 +128,6 @@ def build(cfg: Section) -> LinearPlant:
                         for a in actuators),
         excitations=(Excitation("unbalance", "kg*m", unbalance[keep]),),
         outputs=tuple(Output(o.name, o.row[keep], o.order, o.unit) for o in outputs),
-        damping_floor_rad_s=2 * np.pi * floor,
-        config=cfg.data,
+        damping_floor_rad_s=damping_floor_rad_s,
+        config=config or {},
     )

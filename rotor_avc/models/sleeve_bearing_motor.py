@@ -47,12 +47,10 @@ e4)``; ``magnetic_eccentricity`` ``(c_md - j Omega d_m)(-e1 + e2 + j e3 - j e4)`
 """
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
-from ..errors import ModelError
 from .journal_bearing import JournalBearing, Oil, coefficient_table
 from .plant import Actuator, Excitation, LinearPlant, Output
 
@@ -60,9 +58,6 @@ COORDS = ("z_s", "z_w", "y_s", "y_w", "phi_s", "z_v", "z_b", "z_fL", "z_fR", "y_
           "y_fL", "y_fR")
 IX = {name: k for k, name in enumerate(COORDS)}
 SIDES = ("L", "R")
-#: top-level config keys this model reads (next to rotor_avc.machine.COMMON_KEYS)
-MODEL_KEYS = ("motor", "sleeve_bearing", "electromagnetic", "foundation", "actuator", "environment")
-EM_MODELS = ("field_damping", "off")
 
 
 def _e(*pairs) -> np.ndarray:
@@ -70,14 +65,6 @@ def _e(*pairs) -> np.ndarray:
     for name, value in pairs:
         v[IX[name]] += value
     return v
-
-
-def _loss_factor(sec: Section, key: str) -> float:
-    value = sec.number(key, nonnegative=True)
-    if value >= 0.5:
-        raise sec.error(key, f"loss factor {value} is implausibly large",
-                        fix="give tan(delta) as a fraction (0.04), not a percentage")
-    return value
 
 
 class ElectromagneticField:
@@ -107,104 +94,57 @@ class ElectromagneticField:
         return self.stiffness(speed, np.abs(np.asarray(speed, float)))
 
 
-def _electromagnetic(sec: Section, rated_speed_rad_s: float) -> ElectromagneticField | None:
-    model = sec.choice("model", EM_MODELS)
-    if model == "off":
-        sec.check_keys(("model",))
-        return None
-    sec.check_keys(("model", "magnetic_stiffness_n_per_m", "field_damping_depth",
-                    "rotor_time_constant_s", "rated_slip_frequency_rad_s"))
-    return ElectromagneticField(
-        sec.number("magnetic_stiffness_n_per_m", nonnegative=True, unit="N/m"),
-        sec.number("field_damping_depth", nonnegative=True, maximum=1.0),
-        sec.number("rotor_time_constant_s", positive=True, unit="s"),
-        sec.number("rated_slip_frequency_rad_s", nonnegative=True, unit="rad/s"),
-        rated_speed_rad_s)
+@dataclass(frozen=True)
+class SleeveBearing:
+    """One sleeve bearing: geometry, oil, the speeds of its coefficient table, temperatures."""
+
+    bearing: JournalBearing
+    oil: Oil
+    speeds_rad_s: np.ndarray
+    supply_temperature_c: float
+    effective_temperature_c: float | None = None
 
 
-def _bearing(sec: Section, load_n: float):
-    """The oil-film coefficient table of one sleeve bearing from its config section."""
-    sec.check_keys(("diameter_m", "width_m", "relative_clearance", "oil", "supply_temperature_c",
-                    "effective_temperature_c", "speed_range_rpm", "table_points", "grid"))
-    oil_sec = sec.section("oil")
-    oil_sec.check_keys(("nu40_mm2_s", "nu100_mm2_s", "density15_kg_m3", "expansion_per_k",
-                        "heat_capacity_j_kg_k"))
-    grid = sec.section("grid", {})
-    grid.check_keys(("n_theta", "n_z"))
-    diameter = sec.number("diameter_m", positive=True, unit="m")
-    psi = sec.number("relative_clearance", positive=True, maximum=0.02)
-    lo, hi = sec.number_list("speed_range_rpm", length=2)
-    if not 0 < lo < hi:
-        raise sec.error("speed_range_rpm", f"need 0 < min < max (got [{lo}, {hi}])",
-                        fix="give [min, max] in rpm covering the analyses' speeds, "
-                            "e.g. [100, 6000]")
-    effective = (sec.number("effective_temperature_c", unit="degC")
-                 if sec.has("effective_temperature_c") else None)
-    width = sec.number("width_m", positive=True, unit="m")
-    try:
-        bearing = JournalBearing(diameter, width, psi * diameter / 2,
-                                 grid.integer("n_theta", 120), grid.integer("n_z", 12))
-    except ModelError as exc:
-        raise sec.error("grid" if "grid" in str(exc) else "relative_clearance", str(exc)) from None
-    try:
-        oil = Oil(oil_sec.number("nu40_mm2_s", positive=True, unit="mm^2/s"),
-                  oil_sec.number("nu100_mm2_s", positive=True, unit="mm^2/s"),
-                  oil_sec.number("density15_kg_m3", positive=True, unit="kg/m^3"),
-                  oil_sec.number("expansion_per_k", nonnegative=True, unit="1/K"),
-                  oil_sec.number("heat_capacity_j_kg_k", positive=True, unit="J/(kg K)"))
-    except ModelError as exc:
-        raise sec.error("oil", str(exc)) from None
-    speeds = np.geomspace(lo, hi, sec.integer("table_points", 64, minimum=8)) * math.pi / 30
-    return coefficient_table(bearing, oil, load_n, speeds,
-                             sec.number("supply_temperature_c", unit="degC"), effective)
+@dataclass(frozen=True)
+class MotorParams:
+    """The seed-001 motor, its actuators and foundation (SI units; per side where stated)."""
+
+    stator_mass_kg: float
+    stator_inertia_kg_m2: float
+    rotor_mass_kg: float
+    journal_mass_kg: float
+    housing_mass_kg: float
+    rotor_stiffness_n_per_m: float
+    rotor_tan_delta: float
+    foot_height_m: float
+    foot_half_distance_m: float
+    housing_stiffness_n_per_m: dict[str, float]       # z, y
+    housing_tan_delta: float
+    actuator_stator_mass_kg: float
+    actuator_armature_mass_kg: float
+    actuator_stiffness_n_per_m: dict[str, float]      # z, y
+    actuator_tan_delta: float
+    foundation_mass_kg: dict[str, float]              # side L, R
+    foundation_stiffness_n_per_m: dict[str, dict[str, float]]   # side -> z, y
+    foundation_tan_delta: float
+    gravity_m_s2: float
+    electromagnetic: ElectromagneticField | None
+    sleeve_bearing: SleeveBearing
 
 
-def build(cfg: Section) -> LinearPlant:
-    """Build the seed-001 plant from a config (see ``config/sleeve_bearing_motor.yaml``)."""
-    mot = cfg.section("motor")
-    mot.check_keys(("rated_speed_rpm", "stator_mass_kg", "stator_inertia_kg_m2", "rotor_mass_kg",
-                    "journal_mass_kg", "housing_mass_kg", "rotor_stiffness_n_per_m",
-                    "rotor_tan_delta", "foot_height_m", "foot_half_distance_m",
-                    "housing_stiffness_n_per_m", "housing_tan_delta"))
-    m_s = mot.number("stator_mass_kg", positive=True, unit="kg")
-    theta = mot.number("stator_inertia_kg_m2", positive=True, unit="kg m^2")
-    m_w = mot.number("rotor_mass_kg", positive=True, unit="kg")
-    m_v = mot.number("journal_mass_kg", positive=True, unit="kg")
-    m_b = mot.number("housing_mass_kg", positive=True, unit="kg")
-    c = mot.number("rotor_stiffness_n_per_m", positive=True, unit="N/m")
-    tan_i = _loss_factor(mot, "rotor_tan_delta")
-    h = mot.number("foot_height_m", nonnegative=True, unit="m")
-    b = mot.number("foot_half_distance_m", positive=True, unit="m")
-    hs = mot.section("housing_stiffness_n_per_m")
-    hs.check_keys(("z", "y"))
-    c_b = {d: hs.number(d, positive=True, unit="N/m") for d in ("z", "y")}
-    tan_b = _loss_factor(mot, "housing_tan_delta")
-    rated = mot.number("rated_speed_rpm", positive=True, unit="rpm") * math.pi / 30
-
-    act = cfg.section("actuator")
-    act.check_keys(("stator_mass_kg", "armature_mass_kg", "stiffness_n_per_m", "tan_delta"))
-    m_as = act.number("stator_mass_kg", nonnegative=True, unit="kg")
-    m_aa = act.number("armature_mass_kg", nonnegative=True, unit="kg")
-    acs = act.section("stiffness_n_per_m")
-    acs.check_keys(("z", "y"))
-    c_a = {d: acs.number(d, positive=True, unit="N/m") for d in ("z", "y")}
-    tan_a = _loss_factor(act, "tan_delta")
-
-    fnd = cfg.section("foundation")
-    fnd.check_keys(SIDES + ("tan_delta",))
-    tan_f = _loss_factor(fnd, "tan_delta")
-    m_f, c_f = {}, {}
-    for side in SIDES:
-        s = fnd.section(side)
-        s.check_keys(("mass_kg", "stiffness_n_per_m"))
-        m_f[side] = s.number("mass_kg", nonnegative=True, unit="kg")
-        st = s.section("stiffness_n_per_m")
-        st.check_keys(("z", "y"))
-        c_f[side] = {d: st.number(d, positive=True, unit="N/m") for d in ("z", "y")}
-
-    env = cfg.section("environment", {})
-    env.check_keys(("gravity_m_s2",))
-    g = env.number("gravity_m_s2", 9.81, positive=True, unit="m/s^2")
+def build(p: MotorParams, name: str, damping_floor_rad_s: float, config: dict | None = None
+          ) -> LinearPlant:
+    """The seed-001 plant from its parameters (rotor_avc.model_config.sleeve_bearing_motor reads
+    them from a config); ``config`` is kept on the plant for the record."""
+    m_s, theta, m_w = p.stator_mass_kg, p.stator_inertia_kg_m2, p.rotor_mass_kg
+    m_v, m_b = p.journal_mass_kg, p.housing_mass_kg
+    c, tan_i = p.rotor_stiffness_n_per_m, p.rotor_tan_delta
+    h, b = p.foot_height_m, p.foot_half_distance_m
+    c_b, tan_b = p.housing_stiffness_n_per_m, p.housing_tan_delta
+    m_as, m_aa = p.actuator_stator_mass_kg, p.actuator_armature_mass_kg
+    c_a, tan_a = p.actuator_stiffness_n_per_m, p.actuator_tan_delta
+    m_f, c_f, tan_f = p.foundation_mass_kg, p.foundation_stiffness_n_per_m, p.foundation_tan_delta
+    g, em, sb = p.gravity_m_s2, p.electromagnetic, p.sleeve_bearing
 
     # -- elements -> M, C, D_eta ---------------------------------------------------------------
     n = len(COORDS)
@@ -217,9 +157,9 @@ def build(cfg: Section) -> LinearPlant:
 
     foot_z = {"L": (("z_s", 1.0), ("phi_s", -b)), "R": (("z_s", 1.0), ("phi_s", b))}
     foot_y = (("y_s", 1.0), ("phi_s", -h))
-    for name, mass in (("z_s", m_s), ("y_s", m_s), ("phi_s", theta), ("z_w", m_w), ("y_w", m_w),
-                       ("z_v", 2 * m_v), ("y_v", 2 * m_v), ("z_b", 2 * m_b), ("y_b", 2 * m_b)):
-        M[IX[name], IX[name]] += mass
+    for coord, mass in (("z_s", m_s), ("y_s", m_s), ("phi_s", theta), ("z_w", m_w), ("y_w", m_w),
+                        ("z_v", 2 * m_v), ("y_v", 2 * m_v), ("z_b", 2 * m_b), ("y_b", 2 * m_b)):
+        M[IX[coord], IX[coord]] += mass
     for side in SIDES:
         for rows in (foot_z[side], foot_y):
             w = _e(*rows).real
@@ -236,8 +176,8 @@ def build(cfg: Section) -> LinearPlant:
     N_eta = c * tan_i * (np.outer(r_z, r_y) - np.outer(r_y, r_z))
 
     # -- oil films and magnetic field: speed_terms ----------------------------------------------
-    em = _electromagnetic(cfg.section("electromagnetic"), rated)
-    oil = _bearing(cfg.section("sleeve_bearing"), (m_w / 2 + m_v) * g)
+    oil = coefficient_table(sb.bearing, sb.oil, (m_w / 2 + m_v) * g, sb.speeds_rad_s,
+                            sb.supply_temperature_c, sb.effective_temperature_c)
     film = np.zeros((2, n))                          # journal - housing, z and y
     film[0, [IX["z_v"], IX["z_b"]]] = 1.0, -1.0
     film[1, [IX["y_v"], IX["y_b"]]] = 1.0, -1.0
@@ -274,10 +214,9 @@ def build(cfg: Section) -> LinearPlant:
     outputs = [Output(f"bearing_v{d}", _e((f"{d}_b", 1.0)).real, 1, "m/s") for d in ("z", "y")]
     outputs += [Output(f"foundation_{side}_v{d}", _e((f"{d}_f{side}", 1.0)).real, 1, "m/s")
                 for side in SIDES for d in ("z", "y")]
-    floor = cfg.section("analysis", {}).number("damping_floor_hz", 1.0, positive=True, unit="Hz")
     return LinearPlant(
-        name=cfg.string("name", "sleeve_bearing_motor"), coords=COORDS,
+        name=name, coords=COORDS,
         mass=M, stiffness=C, loss_damping=D_eta, viscous_damping=np.zeros((n, n)),
         gyroscopic=np.zeros((n, n)), circulatory=N_eta, actuators=tuple(actuators),
-        excitations=excitations, outputs=tuple(outputs), damping_floor_rad_s=2 * np.pi * floor,
-        speed_terms=speed_terms, config=cfg.data)
+        excitations=excitations, outputs=tuple(outputs), damping_floor_rad_s=damping_floor_rad_s,
+        speed_terms=speed_terms, config=config or {})

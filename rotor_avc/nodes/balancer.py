@@ -30,7 +30,7 @@ from std_msgs.msg import Float64MultiArray
 from ..balancing.loop_block import LoopBalancer
 from ..balancing.scenario import machine_setup
 from ..errors import RotorAvcError
-from ..sim.loop import LoopSample
+from ..blocks import LoopSample
 from . import messages as m
 from . import taps
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node

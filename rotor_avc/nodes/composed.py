@@ -19,7 +19,7 @@ from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
+from ..scenario import load_scenario
 from . import signals
 from .runtime import close_node, make_executor
 

@@ -40,7 +40,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 
 from ..bag.reader import BagReader
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
+from ..scenario import load_scenario
 from . import signals
 from .runtime import make_executor
 

@@ -9,8 +9,9 @@ velocity, that signal too. Forces: ``foot/<id>/actuator_force`` (geometry_msgs/W
 ``wrench.force``), stamped with the measurement they answer.
 
 Every message of the lockstep loop travels as serialised CDR bytes (raw publishers and
-subscriptions): the nodes fill a template that rclpy serialised once and read the fields they need
-from the bytes -- foot measurements and forces (:class:`StampedVector`, :func:`stamped_value`),
+subscriptions): the nodes fill a template that rclpy serialised once, at the offsets the bags'
+codec finds in it (:class:`rotor_avc.bag.cdr.Layout`), and read the fields they need from the
+bytes with a bounds-checked cursor (malformed input from the network is a reported fault) -- foot measurements and forces (:class:`StampedVector`, :func:`stamped_value`),
 ``rotor/joint_state`` and ``/clock`` (:class:`RotorBytes`, :func:`joint_state`), the labelled
 arrays (:class:`LabelledBytes`, :func:`labelled_array`). These are the same messages on the wire:
 subscribers of the typed messages, the recorder and the bag tools see no difference. rclpy's
@@ -33,9 +34,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from ..bag.cdr import CdrCodec
+from ..bag.cdr import CdrCodec, Layout
 from ..bag.msgdefs import DEFINITIONS, known_specs
-from ..bag.topics import NAMESPACE, topic  # noqa: F401  (re-exported for the nodes)
+from ..bag.topics import FOOT_SIGNALS, NAMESPACE, foot_topic, topic  # noqa: F401  (re-exported)
 
 #: history of the lockstep publishers: deeper than any recorder window (the plant's
 #: ``recorder_window`` is at most LOCKSTEP_DEPTH - RECORDER_MARGIN), so a writer never overwrites
@@ -67,13 +68,21 @@ _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _F64 = struct.Struct("<d")
 _CDR_LE = 1                     # second byte of the encapsulation header 00 01 00 00
+#: the Vector3 (Point) field that carries the value of each stamped kind
+VALUE_FIELDS = {**FOOT_SIGNALS, "actuator_force": "wrench.force"}
 _SPECS = known_specs()
 
 
-def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
-    """``/<ns>/foot/<id>/<kind>`` with kind acceleration, velocity, displacement or
-    actuator_force."""
-    return topic(f"foot/{foot_id}/{kind}", namespace)
+def _template(msg, type_name: str) -> tuple[bytes, Layout]:
+    """A message (an rclpy message or a dict) serialised once by the bags' codec
+    (rotor_avc.bag.cdr), and the byte offsets of its fields
+    (:meth:`rotor_avc.bag.cdr.CdrCodec.layout`; ``Layout.end`` is the byte after its last
+    field): the hot path fills these bytes, which are then the very bytes the in-process
+    recording writes (rotor_avc.recording) -- alignment padding zero, where rclpy's
+    ``serialize_message`` leaves it uninitialised."""
+    codec = CdrCodec(type_name, _SPECS)
+    data = codec.encode(msg)
+    return data, codec.layout(data)
 
 
 def set_stamp(stamp: Time, time_ns: int) -> None:
@@ -117,11 +126,13 @@ class StampedVector:
         msg = STAMPED_TYPES[kind]()
         msg.header.frame_id = f"foot_{foot_id}"
         self.kind, self.foot_id, self.axis = kind, foot_id, axis
-        self._buf = bytearray(template(f"geometry_msgs/msg/{type(msg).__name__}", msg))
-        self._value_at = _vector_offset(self._buf) + 8 * "xyz".index(axis)
+        data, layout = _template(msg, f"geometry_msgs/msg/{STAMPED_TYPES[kind].__name__}")
+        self._buf = bytearray(data)
+        self._stamp_at = layout.leaves["header.stamp.sec"][0]
+        self._value_at = layout.leaves[f"{VALUE_FIELDS[kind]}.{axis}"][0]
 
     def fill(self, time_ns: int, value: float) -> bytes:
-        _STAMP.pack_into(self._buf, 4, *divmod(int(time_ns), _BILLION))
+        _STAMP.pack_into(self._buf, self._stamp_at, *divmod(int(time_ns), _BILLION))
         _F64.pack_into(self._buf, self._value_at, value)
         return bytes(self._buf)
 
@@ -135,15 +146,6 @@ class Force(StampedVector):
 
     def __init__(self, foot_id: str, axis: str = "z"):
         super().__init__("actuator_force", foot_id, axis)
-
-
-def template(msg_type: str, msg) -> bytes:
-    """The CDR bytes of a message (an rclpy message or a dict) by the bag codec
-    (rotor_avc.bag.cdr), from which the hot path fills its messages: the very bytes the
-    in-process recording writes (rotor_avc.recording), alignment padding zero and nothing after
-    the last field -- rclpy's ``serialize_message`` leaves the padding uninitialised and may
-    append bytes that a strict reader (rosbags) refuses."""
-    return CdrCodec(msg_type, _SPECS).encode(msg)
 
 
 def _vector_offset(data) -> int:
@@ -240,10 +242,9 @@ _JOINT_STATE = "sensor_msgs/msg/JointState"
 _LABELLED = "std_msgs/msg/Float64MultiArray"
 
 
-def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int], int]:
-    """``(stamp ns, (offset, count) of position, of velocity, end)`` of a serialised JointState:
-    header (stamp, frame_id), name (strings), position, velocity, effort (float64 sequences);
-    ``end``: the byte after the last field."""
+def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int]]:
+    """``(stamp ns, (offset, count) of position, of velocity)`` of a serialised JointState:
+    header (stamp, frame_id), name (strings), position, velocity, effort (float64 sequences)."""
     r = _Cdr(data, _JOINT_STATE)
     stamp = r.stamp_ns()
     r.string("header.frame_id")
@@ -252,14 +253,14 @@ def _joint_state_blocks(data) -> tuple[int, tuple[int, int], tuple[int, int], in
     position = r.f64_block("position")
     velocity = r.f64_block("velocity")
     r.f64_block("effort")
-    return stamp, position, velocity, r.pos
+    return stamp, position, velocity
 
 
 def joint_state(data) -> tuple[int, tuple[float, ...], tuple[float, ...]]:
     """``(stamp in ns, position, velocity)`` of a serialised sensor_msgs/JointState (the
     ``rotor/joint_state`` of :class:`RotorBytes` or any other); :class:`MessageError` for bytes
     that are not one."""
-    stamp, (p_at, n_p), (v_at, n_v), _ = _joint_state_blocks(data)
+    stamp, (p_at, n_p), (v_at, n_v) = _joint_state_blocks(data)
     return stamp, _float64s(n_p).unpack_from(data, p_at), _float64s(n_v).unpack_from(data, v_at)
 
 
@@ -309,9 +310,9 @@ class LabelledBytes:
     def __init__(self, names):
         self.names = ("time_s",) + tuple(names)
         self.label = ",".join(self.names)
-        buf = template(_LABELLED, Labelled(self.names).fill([0.0] * len(self.names)))
-        _, at, n = _labelled_layout(buf)
-        self._buf = bytearray(buf[:at + 8 * n])      # without trailing bytes (see RotorBytes)
+        data, layout = _template(Labelled(self.names).fill([0.0] * len(self.names)), _LABELLED)
+        at, _, n, _ = layout.leaves["data"]
+        self._buf = bytearray(data[:layout.end])     # without trailing bytes (see RotorBytes)
         self._values = np.frombuffer(self._buf, dtype="<f8", count=n, offset=at)
 
     def fill(self, time_s: float, values) -> bytes:
@@ -380,10 +381,12 @@ class RotorBytes:
 
     def __init__(self):
         joint, clock = Rotor().fill(0, 0.0, 0.0)
-        data = template(_JOINT_STATE, joint)
-        _, (self._angle_at, _), (self._speed_at, _), end = _joint_state_blocks(data)
-        self._joint = bytearray(data[:end])
-        self._clock = bytearray(template("rosgraph_msgs/msg/Clock", clock))
+        data, layout = _template(joint, _JOINT_STATE)
+        self._angle_at = layout.leaves["position"][0]
+        self._speed_at = layout.leaves["velocity"][0]
+        self._joint = bytearray(data[:layout.end])
+        data, layout = _template(clock, "rosgraph_msgs/msg/Clock")
+        self._clock = bytearray(data[:layout.end])
 
     def fill(self, time_ns: int, angle_rad: float, speed_rad_s: float) -> tuple[bytes, bytes]:
         sec_nsec = divmod(int(time_ns), _BILLION)

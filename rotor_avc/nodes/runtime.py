@@ -22,7 +22,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
-from ..sim.scenario import load_scenario
+from ..scenario import load_scenario
 from . import signals
 
 EXECUTORS = ("events", "single_threaded", "multi_threaded")

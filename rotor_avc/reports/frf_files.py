@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.frf import SpeedFrf
+from ..closed_loop.frf import SpeedFrf
 
 
 def write_frf_csv(frf: SpeedFrf, path: Path) -> Path:

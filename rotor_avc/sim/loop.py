@@ -7,49 +7,29 @@ sees the same sample and may set a new correction (:func:`balancer_update`); the
 the plant node calls the same :class:`~rotor_avc.sim.stepper.PlantStepper`, each foot node the
 same controller block, and :func:`forces_from_answers` puts their answers in plant order.
 
-Controller blocks follow :class:`rotor_avc.control.block.DigitalController`: ``feedback``
-(``displacement``/``velocity``/``acceleration``), ``reset()``, ``step(signal) -> force_n``.
-A balancer block has ``reset()`` and ``step(sample: LoopSample)`` returning the correction
-amplitude per excitation name (``{"static": u_e, "moment": u_alpha}``, replacing the previous
-one), or an object carrying it as ``.corrections`` (:class:`rotor_avc.balancing.block.
-BalancerOutput`), or None to keep it; the stepper applies it from the next step on.
+The blocks follow the protocols of :mod:`rotor_avc.blocks`: controllers
+(:class:`~rotor_avc.blocks.Controller`: ``feedback``, ``step(signal) -> force_n``), the balancer
+(:class:`~rotor_avc.blocks.Balancer`: ``step(sample: LoopSample)`` -> the correction amplitude
+per excitation name, ``{"static": u_e, "moment": u_alpha}``, replacing the previous one, or None
+to keep it; the stepper applies it from the next step on) and the feed-forward generator
+(:class:`~rotor_avc.blocks.Synchronous`).
 """
 from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass
-from typing import Mapping, Protocol
+from typing import Mapping
 
 import numpy as np
 
 from .. import __version__
+from ..blocks import Balancer, LoopSample, Synchronous
 from ..errors import ModelError
+from ..settings import INITIAL_STATES
 from .steady_state import start_in_steady_state
 from .stepper import PlantStepper
 from .timeseries import TimeSeries
 
-INITIAL_STATES = ("rest", "steady_state")
-
-
-@dataclass(frozen=True)
-class LoopSample:
-    """What a balancer sees at sample ``k``: time ``t`` (s), shaft ``angle`` (rad), ``speed``
-    (rad/s), ``accel`` (rad/s^2) and the measurement vector ``signals`` (names in ``names``)."""
-
-    k: int
-    t: float
-    angle: float
-    speed: float
-    accel: float
-    signals: np.ndarray
-    names: tuple[str, ...]
-
-
-class BalancerBlock(Protocol):
-    def reset(self) -> None: ...
-
-    def step(self, sample: LoopSample): ...
 
 
 # -- per-step logic (shared with the ROS nodes) ---------------------------------------------------
@@ -109,8 +89,7 @@ def balancer_update(stepper: PlantStepper, balancer, k: int, y: np.ndarray) -> N
     speed, accel, angle = stepper.speed_state()
     sample = LoopSample(k=k, t=stepper.time_s, angle=angle, speed=speed, accel=accel,
                         signals=y.copy(), names=tuple(stepper.layout.names))
-    out = balancer.step(sample)
-    corr = getattr(out, "corrections", out)
+    corr = balancer.step(sample)
     if corr is not None:
         stepper.set_correction(corr)
 
@@ -153,14 +132,14 @@ class Progress:
 
 
 def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
-             balancer: BalancerBlock | None = None, feedforward=None,
+             balancer: Balancer | None = None, feedforward: Synchronous | None = None,
              initial_state: str = "rest", progress: bool | None = None,
              metadata: dict | None = None) -> TimeSeries:
     """Run ``n_steps`` samples of the lockstep loop from ``t = 0``; return the time series.
 
-    ``feedforward``: a synchronous force generator (rotor_avc.control.synchronous: ``actuator_ids``,
-    ``reset()``, ``step(angle, speed) -> forces``) whose forces drive its actuators (which then
-    have no feedback controller), from the shaft angle and speed at ``t_k``.
+    ``feedforward``: a synchronous force generator (rotor_avc.control.synchronous) whose forces
+    drive its actuators (which then have no feedback controller), from the shaft angle and speed
+    at ``t_k``.
     ``progress``: True/False, or None for "when stderr is a terminal and the run is long"."""
     if not isinstance(n_steps, int) or n_steps < 1:
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")

@@ -43,8 +43,8 @@ import scipy.linalg
 from ..errors import ModelError
 from ..models.discretize import continuous_state_space
 from ..models.plant import LinearPlant
+from ..settings import DAMPING_RULES
 
-DAMPING_RULES = ("speed", "whirl")
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..models.plant import LinearPlant
+from ..settings import DEFAULT_GRID_TOL
 from .broadband import BroadbandForce
 from .propagator import (DampingRule, PropagatorTable, basis_coefficients, max_node_spacing,
                          speed_nodes)
@@ -58,7 +59,6 @@ from .speed_profile import SpeedProfile
 #: samples whose speed, angle and node lookups are precomputed at once
 CHUNK = 4096
 MEASURE_KINDS = (("d", 0), ("v", 1), ("a", 2))
-DEFAULT_GRID_TOL = 1e-5
 
 
 class MeasurementLayout:
@@ -294,6 +294,11 @@ class PlantStepper:
     def state(self) -> np.ndarray:
         """``x_k = [q; q']`` (a copy)."""
         return self._v[self._lay.x].copy()
+
+    def set_state(self, x) -> None:
+        """Replace ``x_k`` (of the current sample ``k``): the next :meth:`step` advances from it.
+        The measurement ``y_k`` already returned is not recomputed."""
+        self._v[self._lay.x] = self._checked(x, self._N, "state")
 
     @property
     def forces_held(self) -> np.ndarray:

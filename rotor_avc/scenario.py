@@ -1,4 +1,6 @@
-"""Simulation scenarios: a machine config plus a ``simulation:`` section, validated, and run.
+"""Simulation scenarios: a machine config plus a ``simulation:`` section, validated, and run --
+the composition root that wires the machine, its controllers, balancer and feed-forward into the
+lockstep loop.
 
 A scenario file includes a machine config (``include: foot_mount_case3.yaml``) and adds::
 
@@ -16,9 +18,10 @@ A scenario file includes a machine config (``include: foot_mount_case3.yaml``) a
                                     # optional broadband force for FRFs (rotor_avc.sim.broadband)
       balancer: false               # run the config's `balancer:` (rotor_avc.balancing.loop_block)
 
-Checks (each a :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
+The section is declared in :class:`rotor_avc.settings.SimulationSettings`. Checks (each a
+:class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
 duration; a sample rate above twice the highest rotational frequency and above twice the
-highest of the machine's relevant modes (the first ``analysis.worst_case.n_modes``, default 6,
+highest of the machine's relevant modes (the first ``analysis.worst_case.n_modes``
 undamped natural frequencies at standstill, the modes its controllers act on); speeds within
 ``[0, analysis.frf_speed_hz.stop]``, the range the machine config sets the model up for.
 """
@@ -30,23 +33,19 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..balancing.loop_block import LoopBalancer
-from ..balancing.scenario import machine_setup
-from ..control.block import DEFAULT_SAMPLE_RATE_HZ, build_digital_controllers
-from ..errors import ModelError
-from ..machine import Machine, load_machine, machine_from_config
-from .broadband import BroadbandForce, broadband_from_config
-from .loop import INITIAL_STATES, run_loop
-from .propagator import DAMPING_RULES, DampingRule
-from .speed_profile import SpeedProfile, profile_from_config
-from .stepper import DEFAULT_GRID_TOL, PlantStepper
-from .timeseries import TimeSeries
-
-SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
-                   "feedforward",
-                   "whirl_rad_s", "initial_state", "speed_grid_tol", "test_signal")
-DEFAULT_RELEVANT_MODES = 6
-
+from .analysis.active_bearing_ff import feedforward_method, synchronous_generator
+from .balancing.loop_block import LoopBalancer
+from .balancing.scenario import machine_setup
+from .control.block import build_digital_controllers
+from .errors import ModelError
+from .machine import Machine, load_machine, machine_from_config, model_supports, models_supporting
+from .settings import SimulationSettings, read_settings
+from .sim.broadband import BroadbandForce, broadband_from_config
+from .sim.loop import run_loop
+from .sim.propagator import DampingRule
+from .sim.speed_profile import SpeedProfile, profile_from_config
+from .sim.stepper import PlantStepper
+from .sim.timeseries import TimeSeries
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
@@ -99,7 +98,6 @@ class Scenario:
         """The run's synchronous force generator (``simulation.feedforward``), or None."""
         if self.feedforward_method is None:
             return None
-        from ..analysis.active_bearing_ff import synchronous_generator
         return synchronous_generator(self.machine.plant, self.sample_period_s,
                                      self.amplitudes.get("unbalance", 0j), self.feedforward_method)
 
@@ -120,8 +118,7 @@ class Scenario:
 def relevant_mode_hz(machine: Machine) -> float:
     """Highest of the first ``n_modes`` undamped natural frequencies at standstill (Hz)."""
     p = machine.plant
-    n_modes = machine.analysis.section("worst_case", {}).integer("n_modes", DEFAULT_RELEVANT_MODES,
-                                                                 minimum=1)
+    n_modes = machine.analysis.worst_case.n_modes
     w2 = scipy.linalg.eigh(p.stiffness, p.mass, eigvals_only=True)
     w = np.sqrt(np.clip(w2, 0.0, None))
     w = w[w > 1e-6 * max(w.max(), 1.0)]                  # rigid-body modes have no frequency
@@ -146,22 +143,22 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     """Validate the ``simulation:`` section of a loaded machine config."""
     cfg = machine.config
     sim = cfg.section("simulation")
-    sim.check_keys(SIMULATION_KEYS)
-    control = cfg.section("control", {})
-    if sim.has("sample_rate_hz"):
-        fs = sim.number("sample_rate_hz", positive=True, unit="Hz")
-        if control.has("sample_rate_hz") and control.number("sample_rate_hz") != fs:
+    s = read_settings(SimulationSettings, sim)
+    control = machine.control
+    if s.sample_rate_hz is not None:
+        fs = s.sample_rate_hz
+        if control.sample_rate_hz is not None and control.sample_rate_hz != fs:
             raise sim.error("sample_rate_hz", f"{fs:g} Hz differs from control.sample_rate_hz "
-                            f"{control.number('sample_rate_hz'):g} Hz; plant and controllers "
+                            f"{control.sample_rate_hz:g} Hz; plant and controllers "
                             "run in lockstep at one rate", fix="give one rate (or drop one key)")
     else:
-        fs = control.number("sample_rate_hz", DEFAULT_SAMPLE_RATE_HZ, positive=True, unit="Hz")
+        fs = control.rate_hz
     try:
         profile = profile_from_config(sim.section("speed"))
     except ModelError as exc:
         raise sim.error("speed", str(exc)) from None
-    if sim.has("duration_s"):
-        duration = sim.number("duration_s", positive=True, unit="s")
+    if s.duration_s is not None:
+        duration = s.duration_s
     elif profile.length_s is not None:
         duration = profile.length_s
     else:
@@ -171,10 +168,10 @@ def scenario_from_machine(machine: Machine) -> Scenario:
         raise sim.error("duration_s", f"{duration:g} s is shorter than one sample at {fs:g} Hz",
                         fix="give a longer duration")
     f_max = profile.max_speed_rad_s / (2 * math.pi)
-    frf = cfg.section("analysis", {}).section("frf_speed_hz", {})
-    if frf.has("stop") and f_max > frf.number("stop") * (1 + 1e-12):
+    frf = machine.analysis.frf_speed_hz
+    if frf is not None and f_max > frf.stop * (1 + 1e-12):
         raise sim.error("speed", f"the profile reaches {f_max:g} Hz, beyond the model's range "
-                        f"0 .. {frf.number('stop'):g} Hz (analysis.frf_speed_hz.stop)",
+                        f"0 .. {frf.stop:g} Hz (analysis.frf_speed_hz.stop)",
                         fix="lower the speeds, or extend analysis.frf_speed_hz.stop if the "
                             "model holds there")
     if fs <= 2 * f_max:
@@ -186,54 +183,39 @@ def scenario_from_machine(machine: Machine) -> Scenario:
         raise sim.error("sample_rate_hz", f"{fs:g} Hz is not above twice the machine's highest "
                         f"relevant mode {f_mode:.1f} Hz (analysis.worst_case.n_modes)",
                         fix=f"raise the sample rate above {2 * f_mode:.0f} Hz")
-    kind = sim.choice("damping_at", DAMPING_RULES, default="speed")
-    if kind == "whirl":
-        damping = DampingRule("whirl", sim.number("whirl_rad_s", positive=True, unit="rad/s"))
-    elif sim.has("whirl_rad_s"):
-        raise sim.error("whirl_rad_s", "only used with `damping_at: whirl`",
-                        fix="drop whirl_rad_s or set damping_at: whirl")
-    else:
-        damping = DampingRule("speed")
-    initial = sim.choice("initial_state", INITIAL_STATES, default="rest")
-    if initial == "steady_state" and profile.sample(np.array(0.0))[0] <= 0:
+    damping = DampingRule(s.damping_at, s.whirl_rad_s)
+    if s.initial_state == "steady_state" and profile.sample(np.array(0.0))[0] <= 0:
         raise sim.error("initial_state", "a steady state needs the shaft turning at t = 0",
                         fix="start the speed profile above 0 Hz or use `initial_state: rest`")
-    use_balancer = sim.raw("balancer", False)
-    if not isinstance(use_balancer, bool):
-        raise sim.error("balancer", f"must be true or false (got {use_balancer!r})")
-    if use_balancer and not cfg.has("balancer"):
+    if s.balancer and not cfg.has("balancer"):
         raise sim.error("balancer", "true, but the config has no `balancer:` section",
                         fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
     test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
-            if sim.has("test_signal") else None)
+            if s.test_signal is not None else None)
     return Scenario(
         machine=machine, sample_period_s=1.0 / fs, duration_s=duration, profile=profile,
         amplitudes=_amplitudes(machine, sim.section("unbalance", {})), damping=damping,
-        initial_state=initial,
-        grid_tol=sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
-        use_balancer=use_balancer, feedforward_method=_feedforward_method(machine, sim),
-        test_force=test)
+        initial_state=s.initial_state, grid_tol=s.speed_grid_tol, use_balancer=s.balancer,
+        feedforward_method=_feedforward_method(machine, sim, s), test_force=test)
 
 
-def _feedforward_method(machine: Machine, sim) -> str | None:
-    if not sim.has("feedforward"):
+def _feedforward_method(machine: Machine, sim, s: SimulationSettings) -> str | None:
+    if s.feedforward is None:
         return None
     ff = sim.section("feedforward")
-    ff.check_keys(("type", "method"))
-    ff.choice("type", ("synchronous",))
-    if machine.config.string("model") != "active_bearing":
+    if not model_supports(machine.config, "feedforward"):
         raise ff.error("type", "the synchronous (1x) force generator is seed 002's feed-forward "
-                       "of the active-bearing rotor", fix="use it with model: active_bearing")
+                       "of the active-bearing rotor",
+                       fix="use it with model: " + ", ".join(models_supporting("feedforward")))
     overlap = sorted(set(machine.controllers))
     if overlap:
         raise ff.error("type", f"actuators {overlap} also have feedback controllers",
                        fix="give each actuator either a controller or the feed-forward")
-    if sim.raw("initial_state", "rest") != "rest":
+    if s.initial_state != "rest":
         raise sim.error("initial_state", "the feed-forward run starts from rest (the periodic "
                         "solution is computed for feedback controllers only)",
                         fix="use `initial_state: rest` and a duration of several time constants")
-    default = machine.config.section("feedforward", {}).raw("method", "paper")
-    return ff.choice("method", ("paper", "exact"), default=default)
+    return s.feedforward.method or feedforward_method(machine.config)
 
 
 def load_scenario(name) -> Scenario:

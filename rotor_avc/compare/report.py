@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
+from .comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
                                    TOL_RESONANCE_PCT, Comparison)
 
 ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
-from .closed_loop import ClosedLoop
+from .loop import ClosedLoop
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """Offline comparison of a recorded run with the analytical models (issue 6, DESIGN.md section 5).
 
-Everything comes from the bag (:func:`rotor_avc.analysis.recorded_run.read_run`): the scenario is
+Everything comes from the bag (:func:`rotor_avc.compare.recorded_run.read_run`): the scenario is
 rebuilt from the bag's configuration, so both models use the simulator's plant, controllers,
 sample rate, unbalance and damping rule (``w_F = max(Omega, floor)`` updated with the speed, or
 frozen at ``whirl_rad_s``).
@@ -13,7 +13,7 @@ of :data:`RUNUP_REVOLUTIONS` revolutions (quasi-stationary). Channels: the plant
 With several excitations the measured 1x is their superposition, compared with
 ``sum_j G_j(Omega) u_j`` (the run's complex amplitudes ``u_j``); with one, both are divided by
 it (response per unit unbalance, as the papers plot). Models at the measured speeds: the
-continuous loop (:func:`rotor_avc.analysis.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
+continuous loop (:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
 sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
 lockstep run reproduces), the foot accelerations added as outputs of the plant.
 
@@ -48,15 +48,15 @@ import numpy as np
 from ..control.block import build_digital_controllers
 from ..errors import ModelError
 from ..models.plant import Output
-from . import order_tracking
-from .closed_loop import ClosedLoop
-from .frf import unbalance_frf
-from .frf_estimate import FrfEstimate, estimate_frf
-from .poles import closed_loop_poles
+from ..analysis import order_tracking
+from ..closed_loop.loop import ClosedLoop
+from ..closed_loop.frf import unbalance_frf
+from ..analysis.frf_estimate import FrfEstimate, estimate_frf
+from ..analysis.poles import closed_loop_poles
 from .recorded_run import RecordedRun, read_run
-from .resonance_peaks import measured_resonance, model_peaks
-from .sampled_loop import SampledLoop
-from .transfer import TransferFrf, sampled_transfer_frf, transfer_frf
+from ..analysis.resonance_peaks import measured_resonance, model_peaks
+from ..analysis.sampled_loop import SampledLoop
+from ..analysis.transfer import TransferFrf, sampled_transfer_frf, transfer_frf
 
 TOL_OFF_RESONANCE_DB = 0.5
 TOL_AT_RESONANCE_DB = 2.0

@@ -3,7 +3,7 @@ and every signal a comparison needs on one time base (DESIGN.md section 5).
 
 From the bag (rotor_avc.bag.topics; the namespace is found from ``.../rotor/joint_state``):
 
-* the run's scenario: :func:`rotor_avc.sim.scenario.scenario_from_config` of the configuration's
+* the run's scenario: :func:`rotor_avc.scenario.scenario_from_config` of the configuration's
   ``machine`` section (the whole merged scenario config), so plant, controllers, sample rate,
   speed profile, unbalance, damping rule and test force are the simulator's own; the recorded
   ``damping`` description must match the rebuilt rule;
@@ -29,7 +29,7 @@ import numpy as np
 
 from ..bag import BagError, BagReader
 from ..bag.sequence import require_complete
-from ..sim.scenario import Scenario, scenario_from_config
+from ..scenario import Scenario, scenario_from_config
 
 
 @dataclass

@@ -1,0 +1,39 @@
+"""The Bode plot of `rotor-avc controller`: a foot controller continuous and discrete."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
+    """``|G_c(jw)|`` and phase against the discrete filter ``G_d(e^{jwT})`` up to Nyquist."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nyq = 0.5 / tf.sample_period_s
+    f = np.logspace(np.log10(nyq) - 5, np.log10(nyq), 800)
+    w = 2 * np.pi * f
+    gc, gd = ctrl(1j * w), tf.frequency_response(w)
+    db_c = 20 * np.log10(np.abs(gc))
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    ax1.semilogx(f, db_c, label="G_c(jw), continuous")
+    with np.errstate(divide="ignore"):
+        ax1.semilogx(f, 20 * np.log10(np.abs(gd)), "--", label=f"G_d(e^(jwT)), {tf.method}")
+    ax2.semilogx(f, np.degrees(np.angle(gc)))
+    ax2.semilogx(f, np.degrees(np.angle(gd)), "--")
+    ax1.set_ylim(db_c.min() - 40, db_c.max() + 20)     # a Tustin zero at Nyquist dives to -inf
+    ax2.set_ylim(-190, 190)
+    ax2.set_yticks(np.arange(-180, 181, 90))
+    ax1.set_ylabel("magnitude [dB re 1 SI]")
+    ax2.set_ylabel("phase [deg]")
+    ax2.set_xlabel(f"frequency [Hz] (Nyquist {nyq:g} Hz)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
