@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from ros_helpers import node_process, rclpy, stop  # noqa: F401
+from test_ros_graph import scenario_file
 
 from rotor_avc.bag import BagReader
 from rotor_avc.bag.sequence import check_sequence
@@ -104,8 +105,7 @@ def test_a_recorder_stopping_mid_run_ends_the_lockstep_run(tmp_path, sig):
     finished bag that holds a gapless prefix of the run."""
     from diagnostic_msgs.msg import DiagnosticArray
     from rotor_avc.nodes.runtime import make_executor
-    sc = short_scenario(tmp_path, "scenario_demo_case2", speed={
-        "type": "constant", "speed_hz": 20.0}, duration_s=60.0)
+    sc = scenario_file(tmp_path, "foot_mount_case2", 20.0, duration_s=60.0)
     bag = tmp_path / "run.mcap"
     rec = node_process("recorder", "-p", f"scenario:={sc}", "-p", f"path:={bag}")
     plant = node_process("plant_simulator", "-p", f"scenario:={sc}",
