@@ -149,8 +149,8 @@ def test_timed_replay_keeps_the_recorded_timing(run):
     typical = np.median(lateness)
     assert np.min(lateness - typical) > -0.03       # none ahead of the schedule (+ jitter)
     # no drift: the schedule is absolute, so late messages (a busy machine) do not delay the
-    # later ones -- the typical lateness at the end is that at the start
-    assert abs(np.median(lateness[-100:]) - np.median(lateness[:100])) < 0.05
+    # later ones -- the typical lateness at the end is not above that at the start
+    assert np.median(lateness[-100:]) - np.median(lateness[:100]) < 0.05
     assert lateness[-1] - typical < 1.0
 
 
