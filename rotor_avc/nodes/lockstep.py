@@ -106,3 +106,36 @@ class AnswerBook:
 
     def absent(self) -> list[str]:
         return [r.name for r in self.responders.values() if not r.present]
+
+    def reason(self, name: str) -> str:
+        """Why ``name`` was last declared absent or returned ("" when it never was)."""
+        return self.responders[name].fault_reason
+
+    def statuses(self) -> list[tuple[str, bool, str, int]]:
+        """Per responder ``(name, present, reason, faults)``, for diagnostics."""
+        return [(r.name, r.present, r.fault_reason, r.faults) for r in self.responders.values()]
+
+    # -- real time: no samples to answer, the latest answer holds ------------------------------
+    def latest(self, name: str, value) -> None:
+        """Real time: ``name`` sent ``value`` (it is present from now on)."""
+        r = self.responders[name]
+        r.present = True
+        r.last_value = value
+
+    def expire(self, name: str, silent_s: float) -> bool:
+        """Real time: ``name`` has been silent for ``silent_s``; True when that makes it absent
+        (longer than ``timeout_s``, while it was present)."""
+        r = self.responders[name]
+        if not r.present or silent_s <= self.timeout_s:
+            return False
+        r.present = False
+        r.faults += 1
+        r.fault_reason = f"silent for more than {self.timeout_s:g} s; policy: {self.policy}"
+        return True
+
+    def held(self, name: str, zero):
+        """Real time: the latest answer of a present responder, the policy's for an absent one."""
+        r = self.responders[name]
+        if r.last_value is None or (not r.present and self.policy == "zero"):
+            return zero
+        return r.last_value

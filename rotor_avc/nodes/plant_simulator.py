@@ -335,9 +335,7 @@ class PlantSimulator(Node):
         self.last_force_time[foot] = time.monotonic()
         self.received[self.force_topics[foot]] += 1
         if self.p["mode"] == "realtime":
-            if not self.book.responders[foot].present:
-                self.book.responders[foot].present = True
-            self.book.responders[foot].last_value = value
+            self.book.latest(foot, value)
             return
         if self.started and not self.finished and self.book.receive(foot, stamp, value):
             self._advance()
@@ -420,7 +418,7 @@ class PlantSimulator(Node):
             return
         resend, absent = self.book.poll(now)
         for name in absent:
-            self._fault(f"{name}: {self.book.responders[name].fault_reason}")
+            self._fault(f"{name}: {self.book.reason(name)}")
         if resend:
             self._publish_sample(begin=False)
         # with responders absent the plant no longer waits for them: advance a batch per tick
@@ -443,14 +441,9 @@ class PlantSimulator(Node):
         """Sample k in real time: the latest forces held, measurements published, one step."""
         wall = time.monotonic()
         for foot, t_last in self.last_force_time.items():
-            r = self.book.responders[foot]
-            if r.present and (t_last is None and wall - self.t_start > self.p["controller_timeout_s"]
-                              or t_last is not None and wall - t_last > self.p["controller_timeout_s"]):
-                r.present = False
-                r.faults += 1
-                r.fault_reason = f"silent for more than {self.p['controller_timeout_s']:g} s"
-                self._fault(f"{foot}: {r.fault_reason}; policy: {self.book.policy}")
-        u = forces_from_answers(self.stepper, {f: self._latest_force(f) for f in self.driven})
+            if self.book.expire(foot, wall - (self.t_start if t_last is None else t_last)):
+                self._fault(f"{foot}: {self.book.reason(foot)}")
+        u = forces_from_answers(self.stepper, {f: self.book.held(f, 0.0) for f in self.driven})
         self.schedule.record(self.k, now)
         self.timing.start()
         self._publish_sample()
@@ -486,13 +479,6 @@ class PlantSimulator(Node):
             self._finish(complete=False)
         else:
             self._fault(text + "; going on (realtime_overload: warn)")
-
-    def _latest_force(self, foot: str) -> float:
-        """Real time: the latest force a present controller sent; the policy for an absent one."""
-        r = self.book.responders[foot]
-        if r.last_value is None or (not r.present and self.book.policy == "zero"):
-            return 0.0
-        return r.last_value
 
     # -- end, faults, diagnostics ---------------------------------------------------------------
     def _fault(self, text: str) -> None:
@@ -553,19 +539,18 @@ class PlantSimulator(Node):
         absent = self.book.absent()
         if absent:
             level = "error"
-            text = "; ".join(f"{a}: {self.book.responders[a].fault_reason}" for a in absent)
+            text = "; ".join(f"{a}: {self.book.reason(a)}" for a in absent)
         elif self.fault_log:
             level, text = "warn", self.fault_log[-1]
         if self.finished and self.exit_status:
             level, text = "error", "run ended early: " + self.fault_log[-1]
         elif self.finished and not absent:
             text = "run complete" + (f" ({len(self.fault_log)} faults)" if self.fault_log else "")
-        per = [(f"{self.get_name()}: {name}", "error" if not r.present else "ok",
-                r.fault_reason or "answering", {"faults": r.faults})
-               for name, r in self.book.responders.items()]
-        self.pub_diag.publish(m.diagnostics(m.sample_ns(self.k, self.T),
-                                            [(f"{self.get_name()}: loop", level, text, stats)] + per
-            + [m.published_status(self)]))
+        per = [(f"{self.get_name()}: {name}", "ok" if present else "error",
+                reason or "answering", {"faults": faults})
+               for name, present, reason, faults in self.book.statuses()]
+        self.pub_diag.publish(m.diagnostics(m.sample_ns(self.k, self.T), [
+            (f"{self.get_name()}: loop", level, text, stats), *per, m.published_status(self)]))
 
 
 def main(args=None) -> int:
