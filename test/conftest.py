@@ -76,7 +76,8 @@ COMPETITOR_MAX_S = 600
 def competitors():
     """Two CPU-bound processes competing for the 2 cores while the test runs (bounded in time,
     ended by the fixture): the graph must then still record every sample."""
-    code = f"import time\nt = time.monotonic() + {COMPETITOR_MAX_S}\nwhile time.monotonic() < t: pass"
+    code = (f"import time\nt = time.monotonic() + {COMPETITOR_MAX_S}\n"
+            "while time.monotonic() < t: pass")
     procs = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(2)]
     yield procs
     for p in procs:

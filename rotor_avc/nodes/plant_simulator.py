@@ -31,8 +31,8 @@ drift however late single ticks are; a late sample is taken at once and the next
 none is skipped). After the first ``RATE_CHECK_S`` of the run the plant checks that it holds
 the rate (at most ``RATE_CHECK_OVERRUNS`` of the samples more than a period late); if not, it
 says so with the numbers on ``/diagnostics`` and in the log and goes on, or, with
-``realtime_overload: abort``, ends the run (exit status 3). Lateness percentiles and overruns are on ``/diagnostics`` and in the
-final log line.
+``realtime_overload: abort``, ends the run (exit status 3). Lateness percentiles and overruns
+are on ``/diagnostics`` and in the final log line.
 
 The lockstep messages travel as serialised bytes (rotor_avc.nodes.messages: raw publishers and
 subscriptions, the same messages on the wire); a malformed answer is ignored and reported as a
@@ -508,7 +508,8 @@ class PlantSimulator(Node):
             st = self.schedule.summary()
             if st.get("samples"):
                 self.get_logger().info(
-                    f"real time {1 / self.T:g} Hz: mean period {1e6 * st.get('period_mean_s', 0):.3f} "
+                    f"real time {1 / self.T:g} Hz: mean period "
+                    f"{1e6 * st.get('period_mean_s', 0):.3f} "
                     f"us ({100 * st.get('period_error', 0):+.3f} %), lateness p50 "
                     f"{1e6 * st['late_p50_s']:.0f} / p99 {1e6 * st['late_p99_s']:.0f} / max "
                     f"{1e6 * st['late_max_s']:.0f} us, {st['overruns']} overruns "
