@@ -30,6 +30,9 @@ class PoleResult:
     w_F: float
     poles: np.ndarray
     history: list[float] = field(default_factory=list)
+    #: per-pole damping frequency where the procedure damps every mode on its own (else None:
+    #: every pole at ``w_F``)
+    mode_w_F: np.ndarray | None = None
 
     @property
     def stable(self) -> bool:

@@ -129,4 +129,4 @@ def whirl_iteration_poles(machine, speed_rad_s: float):
     res = per_mode_poles(machine.loop, speed_rad_s,
                          rel_tol=sec.number("rel_tol", 1e-6, positive=True, maximum=0.01))
     w_F = float(res.w_F[res.critical])
-    return PoleResult(speed_rad_s, w_F, res.poles, [w_F])
+    return PoleResult(speed_rad_s, w_F, res.poles, [w_F], mode_w_F=res.w_F)

@@ -13,7 +13,7 @@ import sys
 from ..errors import RotorAvcError
 
 COMMANDS = [
-    "poles", "frf", "controller", "simulate", "compare",     # any machine
+    "poles", "campbell", "frf", "controller", "simulate", "compare",     # any machine
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
     "demo",                                                  # the main job
     "replay",                                                # bags into the ROS graph
