@@ -9,9 +9,9 @@ import os
 import sys
 import time
 
-import numpy as np
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")    # small matrices: threads only contend
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np  # noqa: E402
 
 from rotor_avc.analysis.campbell import campbell_diagram  # noqa: E402
 from rotor_avc.analysis.poles import machine_poles  # noqa: E402
