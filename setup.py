@@ -25,6 +25,7 @@ setup(
         "matplotlib>=3.7",
         "mcap>=1.1",
         "mcap-ros2-support>=0.5",
+        "plotly>=5",                # its bundled plotly.js, embedded in the interactive reports
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)

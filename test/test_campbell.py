@@ -14,6 +14,8 @@ from rotor_avc.config import load_config
 from rotor_avc.machine import Machine, load_machine
 from rotor_avc.models.plant import LinearPlant
 
+from browser_check import check_report
+
 # disk on a tilting shaft (tilt stiffness k_t, inertias I_d, I_p) and an uncoupled translation
 I_D, I_P, K_T = 2.0, 1.2, 8.0e5          # kg m^2, kg m^2, N m/rad -> 100.7 Hz at rest
 M_Z, K_Z = 10.0, 3.4e6                   # kg, N/m -> 92.8 Hz, crossed by the backward whirl
@@ -128,3 +130,10 @@ def test_every_shipped_machine_has_a_campbell_diagram():
         machine = load_machine(name)
         cd = campbell_diagram(machine, 2 * np.pi * np.linspace(5.0, top_hz, 4))
         assert cd.poles.shape[1] >= 4 and np.all(np.isfinite(cd.poles)), name
+
+
+def test_campbell_report_renders_in_a_browser(tmp_path):
+    out = tmp_path / "c"
+    assert main(["campbell", "roller_bearing_stability", "--speed-hz", "300:500:9",
+                 "--out", str(out), "--speed-unit", "rpm"]) == 0
+    assert check_report(out / "index.html") == 2

@@ -11,6 +11,7 @@ from ..analysis.campbell import DAMPING_RULES, campbell_diagram
 from ..errors import ConfigError
 from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
+from ..reports.campbell_report import write_campbell_html
 from .common import speed_range_from_zero_hz
 
 NAME = "campbell"
@@ -37,7 +38,8 @@ def add_arguments(p) -> None:
                    help="excitation orders for the lines and critical speeds (default 1,2)")
     p.add_argument("--max-freq-hz", type=float, default=None,
                    help="top of the plot's frequency axis (default 1.1 x the highest order line)")
-    p.add_argument("--speed-unit", choices=("hz", "rpm"), default="hz", help="plot speed axis unit")
+    p.add_argument("--speed-unit", choices=("hz", "rpm"), default="hz",
+                   help="speed axis of the PNG and the report's initial choice")
     p.add_argument("--json", action="store_true",
                    help='print {"speed_hz": [...], "modes": [{"label", "freq_hz", "damping_ratio"}], '
                         '"critical_speeds": [{"mode", "order", "speed_hz"}]}')
@@ -82,8 +84,10 @@ def run(args) -> int:
                        "damping": args.damping, "machine": machine.plant.name}, fh, indent=1)
         png = plot_campbell(cd, args.out / "campbell.png", title, args.colour, args.orders,
                             args.max_freq_hz, args.speed_unit)
+        report = write_campbell_html(cd, args.out / "index.html", title, args.colour, args.orders,
+                                     args.max_freq_hz, args.speed_unit)
         if not args.json:
-            print(f"wrote {args.out / 'campbell.json'} and {png}")
+            print(f"wrote {args.out / 'campbell.json'}, {png} and {report}")
     if not args.json:
         _print_summary(cd, title, args.orders)
     return 0

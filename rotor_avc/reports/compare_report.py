@@ -28,29 +28,13 @@ import numpy as np
 
 from ..analysis.comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
                                    TOL_RESONANCE_PCT, Comparison)
+from .jsonable import jsonable as _clean
 
 ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "
               f"within {TOL_OFF_RESONANCE_DB:g} dB away from resonances and "
               f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
               f"{TOL_RESONANCE_PCT:g} % (issue 6).")
 STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
-
-
-def _clean(value):
-    """JSON-safe: numpy -> Python, NaN/inf -> None."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _clean(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, complex):
-        return {"re": _clean(value.real), "im": _clean(value.imag)}
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
 
 
 def _summary(c: dict) -> dict:
