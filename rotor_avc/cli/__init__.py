@@ -17,6 +17,7 @@ COMMANDS = [
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
     "demo",                                                  # the main job
     "replay",                                                # bags into the ROS graph
+    "runup",                                                 # views of a recorded run-up
 ]
 
 
