@@ -1,5 +1,5 @@
 """``rotor-avc study``: controller gain sweeps -- resonance shifts, reductions, actuator forces
-(seed 001 Sec. 4, Figs. 5-13), as CSV and PNG."""
+(seed 001 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page."""
 from __future__ import annotations
 
 import csv
@@ -12,6 +12,7 @@ from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ConfigError
 from ..machine import load_machine
+from ..reports.study_report import write_study_html
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
@@ -191,6 +192,7 @@ def _plot(study: GainStudy, stem: Path) -> list[Path]:
     paths.append(stem.with_name(stem.name + "_resonances.png"))
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
+    paths.append(write_study_html(study, stem.with_name(stem.name + ".html"), glabel))
     return paths
 
 
