@@ -1,11 +1,16 @@
 """API 684 checks against the exact half-power points of a single-degree-of-freedom oscillator
 and the standard's required-margin formulas."""
+import json
+
 import numpy as np
 import pytest
 
 from rotor_avc.analysis.api684 import (check_response, format_table, half_power_points,
                                        required_margin_pct)
+from rotor_avc.analysis.campbell import campbell_diagram
+from rotor_avc.cli import main
 from rotor_avc.errors import ModelError
+from rotor_avc.machine import load_machine
 
 
 def sdof(speed_hz, fn_hz, zeta):
@@ -70,3 +75,20 @@ def test_bad_input_is_refused():
         check_response([3.0, 2.0, 1.0], [1.0, 2.0, 1.0], (1.0, 2.0))
     with pytest.raises(ModelError, match="operating speed range"):
         check_response([1.0, 2.0, 3.0], [1.0, 2.0, 1.0], (0.0, 2.0))
+
+
+def test_model_check_agrees_with_the_campbell_damping(capsys):
+    """An isolated mode of seed 001's motor: AF of the bearing response ~ 1 / (2 zeta) of the
+    mode where it crosses 1x (Campbell diagram, forced-response damping)."""
+    assert main(["api684", "sleeve_bearing_motor", "--operating-hz", "55:65", "--speed-hz",
+                 "5:75:1401", "--responses", "bearing_vz_mass_eccentricity", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    (check,) = data["responses"]["bearing_vz_mass_eccentricity"]
+    assert check["verdict"] == "pass" and check["position"] == "below"
+    cd = campbell_diagram(load_machine("sleeve_bearing_motor"),
+                          2 * np.pi * np.linspace(15.0, 25.0, 41), rule="forced")
+    crossing = min(cd.critical_speeds((1,)), key=lambda r: abs(r["speed_hz"] - check["speed_hz"]))
+    assert crossing["speed_hz"] == pytest.approx(check["speed_hz"], rel=0.01)
+    k = cd.labels.index(crossing["mode"])
+    zeta = np.interp(crossing["speed_hz"], cd.speed_hz, cd.damping_ratio[:, k])
+    assert check["amplification_factor"] == pytest.approx(1 / (2 * zeta), rel=0.1)

@@ -15,6 +15,7 @@ from ..errors import RotorAvcError
 COMMANDS = [
     "poles", "campbell", "frf", "controller", "simulate", "compare",     # any machine
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
+    "api684",                                                # standard checks of a model
     "demo",                                                  # the main job
     "replay",                                                # bags into the ROS graph
     "runup",                                                 # views of a recorded run-up

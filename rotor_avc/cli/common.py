@@ -38,3 +38,11 @@ def nonnegative_float(text: str) -> float:
 def speed_range_from_zero_hz(text: str) -> np.ndarray:
     """:func:`speed_range_hz` with START = 0 allowed."""
     return speed_range_hz(text, allow_zero=True)
+
+
+def config_frf_speeds_hz(machine) -> np.ndarray:
+    """The speed grid of a machine config's ``analysis.frf_speed_hz: {start, stop, n}``."""
+    rng = machine.analysis.section("frf_speed_hz")
+    start = rng.number("start", positive=True, unit="Hz")
+    stop = rng.number("stop", minimum=start, unit="Hz")
+    return np.linspace(start, stop, rng.integer("n", minimum=2))

@@ -33,7 +33,8 @@ def _hz_list(text: str) -> list[float]:
     return values
 
 
-def _range(text: str) -> tuple[float, float]:
+def operating_range(text: str) -> tuple[float, float]:
+    """``MIN:MAX`` in Hz -> (min, max), 0 < MIN <= MAX."""
     try:
         lo, hi = (float(v) for v in text.split(":"))
     except ValueError:
@@ -54,7 +55,7 @@ def add_arguments(p) -> None:
     p.add_argument("--window-s", type=float, default=1.0, help="waterfall window length [s]")
     p.add_argument("--orbit-hz", type=_hz_list, default=None, metavar="F,F",
                    help="speeds of the orbit plots in Hz (default: 1/3 and 2/3 of the top speed)")
-    p.add_argument("--operating-hz", type=_range, default=None, metavar="MIN:MAX",
+    p.add_argument("--operating-hz", type=operating_range, default=None, metavar="MIN:MAX",
                    help="operating speed range for the API 684 separation margins (default: the "
                         "speed the run ends at)")
     p.add_argument("--speed-unit", choices=("hz", "rpm"), default="rpm",
