@@ -137,3 +137,18 @@ def test_campbell_report_renders_in_a_browser(tmp_path):
     assert main(["campbell", "roller_bearing_stability", "--speed-hz", "300:500:9",
                  "--out", str(out), "--speed-unit", "rpm"]) == 0
     assert check_report(out / "index.html") == 2
+
+
+def test_sampled_loop_modes_approach_the_continuous_ones():
+    """At the config's 5 kHz control rate the digital loop's equivalent poles s = ln(z)/T lie
+    close to the continuous loop's (the sampling contract of DESIGN.md 3, not the same model)."""
+    machine = load_machine("foot_mount_case3")
+    speeds = 2 * np.pi * np.array([0.0, 100.0, 250.0])
+    cont = campbell_diagram(machine, speeds)
+    samp = campbell_diagram(machine, speeds, sampled=True)
+    for i in range(3):
+        low = np.sort(cont.freq_hz[i][cont.freq_hz[i] < 200])
+        theirs = np.sort(samp.freq_hz[i][(samp.freq_hz[i] > 1) & (samp.freq_hz[i] < 210)])
+        assert theirs.size == low.size
+        assert np.allclose(theirs, low, rtol=0.02)
+        assert not np.allclose(theirs, low, rtol=1e-6)            # a different model indeed

@@ -139,21 +139,42 @@ def tracking_cost(lam_a, vec_a, lam_b, vec_b) -> np.ndarray:
     return (1.0 - mac) + np.abs(lam_a[:, None] - lam_b[None, :]) / scale
 
 
-def campbell_diagram(machine, speeds_rad_s, rule: str = "config") -> CampbellDiagram:
-    """Poles of ``machine`` (its ``loop``) over a speed grid with a damping rule, tracked by
-    eigenvector similarity (see the module docstring)."""
+def sampled_poles(machine):
+    """``f(speed, PoleResult) -> (poles, eigenvectors)``: the equivalent continuous poles
+    ``s = ln(z) / T`` of the machine's sampled loop (its digital controllers, DESIGN.md 3) at the
+    rule's damping frequency ``w_F`` (the least damped pole's for per-mode rules); frequencies
+    are unique below the Nyquist frequency only."""
+    from .sampled_loop import machine_sampled_loop      # (its import chain reaches this module)
+    from .stability_threshold import SampledEigenvalues
+
+    loop = machine_sampled_loop(machine)
+
+    def poles(speed: float, res: PoleResult):
+        lam, vec = SampledEigenvalues(loop, res.w_F).eig(speed)
+        return lam, vec / np.linalg.norm(vec, axis=0)
+    return poles
+
+
+def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
+                     sampled: bool = False) -> CampbellDiagram:
+    """Poles of ``machine`` (its ``loop``, or with ``sampled`` its sampled loop: see
+    :func:`sampled_poles`) over a speed grid with a damping rule, tracked by eigenvector
+    similarity (see the module docstring)."""
     if rule not in DAMPING_RULES:
         raise ModelError(f"unknown damping rule {rule!r}; known: {', '.join(DAMPING_RULES)}")
     speeds = np.asarray(speeds_rad_s, dtype=float)
     if speeds.ndim != 1 or speeds.size < 2 or np.any(np.diff(speeds) <= 0) or speeds[0] < 0:
         raise ModelError("Campbell speeds must be an increasing grid of >= 2 speeds >= 0")
     poles_at = DAMPING_RULES[rule]
+    discrete = sampled_poles(machine) if sampled else None
     tracked, prev = [], None
     for speed in speeds:
         res = poles_at(machine, float(speed))
-        w_F = res.mode_w_F if res.mode_w_F is not None else np.full(res.poles.size, res.w_F)
-        vec = mode_vectors(machine.loop, float(speed), res.poles, w_F)
-        lam = res.poles
+        if discrete is not None:
+            lam, vec = discrete(float(speed), res)
+        else:
+            w_F = res.mode_w_F if res.mode_w_F is not None else np.full(res.poles.size, res.w_F)
+            lam, vec = res.poles, mode_vectors(machine.loop, float(speed), res.poles, w_F)
         if prev is not None:
             if lam.size != prev[0].size:
                 raise ModelError(f"the number of poles changes at {speed / (2 * np.pi):.6g} Hz "

@@ -29,6 +29,9 @@ def add_arguments(p) -> None:
     loops.add_argument("--closed", action="store_true",
                        help="loops closed with the config's controllers (the default where it has any)")
     loops.add_argument("--open", action="store_true", help="loops open (controllers removed)")
+    p.add_argument("--sampled", action="store_true",
+                   help="poles of the sampled loop (the digital controllers at the config's "
+                        "control.sample_rate_hz) as s = ln(z)/T, at the rule's damping frequency")
     p.add_argument("--damping", choices=list(DAMPING_RULES), default="config",
                    help="loss-factor damping rule: config = the config's analysis.pole_method "
                         "(as `rotor-avc poles`), forced = w_F = max(Omega, floor), or a pole method")
@@ -70,11 +73,12 @@ def selected_machine(config, closed: bool, open_: bool):
 
 def run(args) -> int:
     machine = selected_machine(args.config, args.closed, args.open)
-    cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping)
+    cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping, args.sampled)
     data = cd.to_json(args.orders)
     if args.json:
         print(json.dumps(data))
-    loops = "closed loop" if machine.controllers else "loops open"
+    loops = ("sampled closed loop" if args.sampled else "closed loop") if machine.controllers \
+        else "loops open"
     title = f"{machine.plant.name}: Campbell diagram ({loops}, damping: {args.damping})"
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)

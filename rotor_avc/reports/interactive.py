@@ -101,8 +101,8 @@ _CSS = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1100px; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
-td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; }
-th { background: #f2f2f2; } td.text { text-align: left; }
+td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
+th { background: #f2f2f2; } td.num { text-align: right; }
 .pass { color: #17702f; font-weight: bold; } .fail { color: #b00020; font-weight: bold; }
 .controls { position: sticky; top: 0; background: #fff; padding: 0.4em 0; border-bottom: 1px solid #ddd; z-index: 10; }
 .plot { width: 100%; } .note { color: #555; font-size: 0.9em; }
@@ -127,7 +127,7 @@ def table_html(rows: list[dict], columns: list[tuple[str, str]], classes=None) -
         for key, _ in columns:
             v = r.get(key)
             text = "-" if v is None else (f"{v:.5g}" if isinstance(v, float) else str(v))
-            cls = (classes or {}).get(key, lambda _: "text" if isinstance(v, str) else "")(v)
+            cls = (classes or {}).get(key, lambda _: "num" if isinstance(v, (int, float)) else "")(v)
             cells.append(f'<td class="{cls}">{html.escape(text)}</td>')
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"

@@ -15,7 +15,7 @@ API_COLUMNS = [("speed_hz", "N_c [Hz]"), ("speed_rpm", "N_c [rpm]"), ("peak", "p
                ("amplification_factor", "AF"), ("n1_hz", "N_1 [Hz]"), ("n2_hz", "N_2 [Hz]"),
                ("position", "position"), ("separation_margin_pct", "SM [%]"),
                ("required_margin_pct", "SM required [%]"), ("verdict", "verdict")]
-VERDICT_CLASS = {"verdict": lambda v: {"pass": "pass", "fail": "fail"}.get(v, "text")}
+VERDICT_CLASS = {"verdict": lambda v: {"pass": "pass", "fail": "fail"}.get(v, "")}
 
 
 def waterfall_figure(wf: Waterfall, unit: str) -> Figure:
