@@ -13,6 +13,7 @@ from ..analysis.stability_study import (RAD_S_PER_RPM, StudyResult, machine_thre
 from ..analysis.stability_threshold import STATUSES, eigenvalues_over_speed
 from ..config import load_config
 from ..errors import ConfigError
+from ..reports.stability_report import write_stability_study_html
 
 NAME = "stability"
 HELP = ("Threshold of stability of a machine with loss-factor and internal damping (eigenvalues "
@@ -105,8 +106,10 @@ def _run_study(cfg, varies, args) -> int:
             writer.writeheader()
             writer.writerows(rows)
         path = plot_map(study, args.out / "threshold_map.png")
+        report = write_stability_study_html(study, args.out / "index.html",
+                                            f"{cfg.string('name', 'machine')}: threshold of stability")
         if not args.json:
-            print(f"wrote {args.out / 'thresholds.csv'} and {path}")
+            print(f"wrote {args.out / 'thresholds.csv'}, {path} and {report}")
     return 0
 
 
