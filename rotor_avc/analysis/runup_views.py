@@ -5,9 +5,10 @@
   of amplitude ``a`` shows as ``a`` (``2 |X| / sum w``). Orders ``k`` lie on ``f = k n``;
 * **1x Bode and polar plots**: the order-tracked 1x phasors (:mod:`.order_tracking`, the
   comparison's windows) with the continuous model's superposed response at the same speeds;
-* **orbits** of the bearing housing at chosen speeds: the displacement in the (y, z) plane over
-  the whole revolutions of the order-tracking window nearest to the speed -- raw (the recorded
-  velocities integrated, trend removed) and 1x filtered (``Re{V / (j Omega) e^{j theta}}``);
+* **orbits** of the bearing housings (or any point with two transverse outputs) at chosen
+  speeds: the displacement in their plane over the whole revolutions of the order-tracking window
+  nearest to the speed -- raw (the recorded velocities or accelerations integrated, trend removed
+  after each step) and 1x filtered (``Re{V / (j Omega)^k e^{j theta}}`` for a k-th derivative);
 * **API 684 checks** (:mod:`.api684`) of each channel's 1x amplitude, measured and modelled.
 """
 from __future__ import annotations
@@ -86,35 +87,71 @@ def one_x_track(run: RecordedRun, channels: list[str], n_model: int = 2000) -> O
                      list(zip(track.time_s - half, track.time_s + half)))
 
 
+def _outputs(run: RecordedRun) -> dict:
+    return {o.name: o for o in _with_foot_accelerations(run.machine.plant).outputs}
+
+
 def channel_unit(run: RecordedRun, channel: str) -> str:
-    plant = _with_foot_accelerations(run.machine.plant)
-    for out in plant.outputs:
-        if out.name == channel:
-            return out.unit
-    return "N" if channel.startswith("actuator_") else ""
+    out = _outputs(run).get(channel)
+    return out.unit if out is not None else ("N" if channel.startswith("actuator_") else "")
 
 
-def orbit_pairs(channels) -> list[tuple[str, str, str]]:
-    """``(point, y channel, z channel)`` of every bearing housing with both velocities."""
-    names = set(channels)
-    return [(c[:-3], c[:-1] + "y", c) for c in sorted(names)
-            if c.startswith("bearing_") and c.endswith("_vz") and c[:-1] + "y" in names]
+def housing_channels(run: RecordedRun) -> list[str]:
+    """The bearing-housing outputs of the run's plant (``bearing...``/``housing...``), else every
+    plant output."""
+    names = [o.name for o in run.machine.plant.outputs if o.name in run.channels]
+    housing = [n for n in names if n.startswith(("bearing", "housing"))]
+    return housing or names
+
+
+#: transverse axes of an orbit, by the axes a point has: (horizontal, vertical) of the plot
+ORBIT_AXES = (("y", "z"), ("x", "z"), ("x", "y"))
+
+
+def orbit_pairs(run: RecordedRun, channels) -> list[tuple[str, str, str, int]]:
+    """``(point, first channel, second channel, derivative order)`` of every point with two
+    transverse outputs of the same kind among ``channels``: names ``<point>_<k><axis>`` or
+    ``<point>_<axis>`` (``k`` = d, v, a), the axes per :data:`ORBIT_AXES` (for three axes,
+    y and z)."""
+    outs = _outputs(run)
+    groups: dict[tuple[str, str, int], dict[str, str]] = {}
+    for name in channels:
+        out = outs.get(name)
+        point, _, tag = name.rpartition("_")
+        if out is None or not point or tag[-1:] not in "xyz" or len(tag) > 2:
+            continue
+        groups.setdefault((point, tag[:-1], out.order), {})[tag[-1]] = name
+    pairs = []
+    for (point, _, order), axes in sorted(groups.items()):
+        for a, b in ORBIT_AXES:
+            if a in axes and b in axes:
+                pairs.append((point, axes[a], axes[b], order))
+                break
+    return pairs
 
 
 @dataclass
 class Orbit:
     point: str
+    axes: tuple[str, str]      # channel names of the two plotted directions
     speed_hz: float
-    raw_m: np.ndarray          # (K, 2) displacement y, z over the window
+    raw_m: np.ndarray          # (K, 2) displacement over the window
     one_x_m: np.ndarray        # (360, 2) 1x-filtered ellipse
     key_m: np.ndarray          # (2,) 1x position at shaft angle 0 (the key phasor mark)
+
+
+def _displacement(values, t, order: int) -> np.ndarray:
+    """Integrate ``order`` times over the window, removing the trend after each step."""
+    for _ in range(order):
+        values = scipy.signal.detrend(scipy.integrate.cumulative_trapezoid(values, t, initial=0.0))
+    return scipy.signal.detrend(values, type="constant") if order == 0 else values
 
 
 def orbits(run: RecordedRun, track: OneXTrack, speeds_hz) -> list[Orbit]:
     """Housing orbits at the track windows nearest to ``speeds_hz`` (module docstring)."""
     out = []
     theta = np.linspace(0.0, 2 * np.pi, 360)
-    for point, ch_y, ch_z in orbit_pairs(track.measured):
+    for point, ch_a, ch_b, order in orbit_pairs(run, track.measured):
         for f in speeds_hz:
             i = int(np.argmin(np.abs(track.speed_hz - f)))
             t0, t1 = track.windows[i]
@@ -122,14 +159,11 @@ def orbits(run: RecordedRun, track: OneXTrack, speeds_hz) -> list[Orbit]:
             if np.count_nonzero(sel) < 4:
                 continue
             t = run.time_s[sel]
-            raw = np.column_stack([
-                scipy.signal.detrend(scipy.integrate.cumulative_trapezoid(run.channels[c][sel], t,
-                                                                          initial=0.0))
-                for c in (ch_y, ch_z)])
+            raw = np.column_stack([_displacement(run.channels[c][sel], t, order) for c in (ch_a, ch_b)])
             w = 2 * np.pi * track.speed_hz[i]
-            disp = np.array([track.measured[ch_y][i], track.measured[ch_z][i]]) / (1j * w)
+            disp = np.array([track.measured[ch_a][i], track.measured[ch_b][i]]) / (1j * w) ** order
             ellipse = np.real(disp[None, :] * np.exp(1j * theta)[:, None])
-            out.append(Orbit(point, float(track.speed_hz[i]), raw, ellipse, disp.real))
+            out.append(Orbit(point, (ch_a, ch_b), float(track.speed_hz[i]), raw, ellipse, disp.real))
     return out
 
 

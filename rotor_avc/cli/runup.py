@@ -10,8 +10,8 @@ import numpy as np
 
 from ..analysis.api684 import format_table
 from ..analysis.recorded_run import read_run
-from ..analysis.runup_views import (api684_tables, channel_unit, one_x_track, orbit_pairs, orbits,
-                                    run_waterfall)
+from ..analysis.runup_views import (api684_tables, channel_unit, housing_channels, one_x_track,
+                                    orbit_pairs, orbits, run_waterfall)
 from ..reports.jsonable import jsonable
 from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
 from ..reports.runup_report import api_rows, write_runup_html
@@ -48,8 +48,8 @@ def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="a run-up recorded by `rotor-avc simulate` or the recorder")
     p.add_argument("--out", type=Path, required=True, help="output folder (created)")
     p.add_argument("--channels", nargs="+", default=None, metavar="NAME",
-                   help="channels for the 1x plots and API 684 checks (default: the bearing "
-                        "housings' channels)")
+                   help="channels for the 1x plots, orbits and API 684 checks (default: the "
+                        "bearing housings' outputs, else every output of the plant)")
     p.add_argument("--waterfall-channel", default=None,
                    help="channel of the waterfall (default: the first of --channels)")
     p.add_argument("--window-s", type=float, default=1.0, help="waterfall window length [s]")
@@ -64,7 +64,7 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     run_ = read_run(args.bag)
-    channels = args.channels or [c for c in run_.channels if c.startswith("bearing_")]
+    channels = args.channels or housing_channels(run_)
     track = one_x_track(run_, channels)
     top_hz = float(track.speed_hz.max())
     operating = args.operating_hz or (float(run_.speed_rad_s[-1] / (2 * np.pi)),) * 2
@@ -97,8 +97,8 @@ def run(args) -> int:
         for kind, checks in both.items():
             print(f"API 684, {c} ({kind}):")
             print(format_table(checks, track.units[c], operating))
-    if not orbit_pairs(channels):
-        print("no orbit: the channels hold no bearing housing with both y and z velocity")
+    if not orbit_pairs(run_, channels):
+        print("no orbit: the channels hold no point with two transverse outputs of one kind")
     for path in written + [args.out / "api684.json", report]:
         print(f"wrote {path}")
     return 0

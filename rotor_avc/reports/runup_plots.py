@@ -95,7 +95,7 @@ def plot_polar(track: OneXTrack, channel: str, path: Path, speed_unit: str = "rp
 
 
 def plot_orbits(orbits: list[Orbit], path: Path, speed_unit: str = "rpm") -> Path:
-    """Bearing-housing displacement orbits (y horizontal, z vertical) in micrometres."""
+    """Displacement orbits (first channel horizontal, second vertical) in micrometres."""
     plt = _pyplot()
     factor, xlabel = speed_axis(speed_unit)
     points = sorted({o.point for o in orbits})
@@ -109,8 +109,8 @@ def plot_orbits(orbits: list[Orbit], path: Path, speed_unit: str = "rpm") -> Pat
         ax.plot(o.key_m[0] * 1e6, o.key_m[1] * 1e6, "ko", ms=4)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title(f"{o.point} at {o.speed_hz * factor:.4g} {xlabel.split('[')[1][:-1]}", fontsize=9)
-        ax.set_xlabel("y [um]", fontsize=8)
-        ax.set_ylabel("z [um]", fontsize=8)
+        ax.set_xlabel(f"{o.axes[0]} displacement [um]", fontsize=8)
+        ax.set_ylabel(f"{o.axes[1]} displacement [um]", fontsize=8)
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=7)
     return _save(fig, path)

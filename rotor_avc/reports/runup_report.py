@@ -70,8 +70,10 @@ def orbit_figure(orbits: list[Orbit]) -> Figure:
                        "x": o.raw_m[:, 0] * 1e6, "y": o.raw_m[:, 1] * 1e6, "line": {"width": 0.6}})
         traces.append({"type": "scatter", "mode": "lines", "name": name + " 1x",
                        "x": o.one_x_m[:, 0] * 1e6, "y": o.one_x_m[:, 1] * 1e6, "line": {"width": 2}})
-    return Figure("orbits", "bearing-housing orbits (click legend entries to show or hide)", traces,
-                  x_title="y displacement [um]", y_title="z displacement [um]", speed_axis=None,
+    a, b = orbits[0].axes
+    return Figure("orbits", "orbits (click legend entries to show or hide)", traces,
+                  x_title=f"{a.rpartition('_')[2]} displacement [um]",
+                  y_title=f"{b.rpartition('_')[2]} displacement [um]", speed_axis=None,
                   layout={"yaxis": {"scaleanchor": "x"}}, height_px=560)
 
 
