@@ -49,7 +49,7 @@ DAMPING_RULES: dict[str, Callable] = {"config": machine_poles, "forced": _forced
 @dataclass
 class CampbellDiagram:
     """Tracked modes over speed: column ``k`` of ``poles`` follows one mode (``Im >= 0`` at the
-    first speed; ordered by frequency there)."""
+    first speed; ordered by frequency there and labelled with it, e.g. ``mode 3 (15.96 Hz)``)."""
 
     speed_rad_s: np.ndarray
     poles: np.ndarray                       # (speeds, modes), 1/s
@@ -187,4 +187,7 @@ def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
     scale = max(np.abs(poles[0]).max(), 1.0)
     keep = np.flatnonzero(poles[0].imag >= -1e-9 * scale)
     keep = keep[np.lexsort((poles[0, keep].real, np.abs(poles[0, keep].imag)))]
-    return CampbellDiagram(speeds, poles[:, keep], [f"mode {k + 1}" for k in range(keep.size)])
+    f0 = np.abs(poles[0, keep].imag) / (2 * np.pi)
+    labels = [f"mode {k + 1} ({f:.4g} Hz)" if f > 0 else f"mode {k + 1} (non-oscillating)"
+              for k, f in enumerate(f0)]
+    return CampbellDiagram(speeds, poles[:, keep], labels)

@@ -100,9 +100,9 @@ def run(args) -> int:
 def _print_summary(cd, title: str, orders) -> None:
     s = cd.speed_hz
     print(title)
-    print(f"{'mode':>8} {f'f at {s[0]:g} Hz':>14} {f'f at {s[-1]:g} Hz':>14} {'min zeta':>9}")
+    print(f"{'mode':>28} {f'f at {s[0]:g} Hz':>14} {f'f at {s[-1]:g} Hz':>14} {'min zeta':>9}")
     for k, label in enumerate(cd.labels):
-        print(f"{label:>8} {cd.freq_hz[0, k]:14.3f} {cd.freq_hz[-1, k]:14.3f} "
+        print(f"{label:>28} {cd.freq_hz[0, k]:14.3f} {cd.freq_hz[-1, k]:14.3f} "
               f"{cd.damping_ratio[:, k].min():9.4f}")
     for r in cd.critical_speeds(orders):
         print(f"critical speed {r['speed_hz']:10.3f} Hz ({r['speed_hz'] * 60:9.1f} rpm): "
