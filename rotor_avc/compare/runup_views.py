@@ -3,13 +3,15 @@
 * **waterfall** (cascade): amplitude spectra of a channel over consecutive Hann windows
   (50 % overlap), each at the window's mean rotor speed; amplitude-corrected so that a sinusoid
   of amplitude ``a`` shows as ``a`` (``2 |X| / sum w``). Orders ``k`` lie on ``f = k n``;
-* **1x Bode and polar plots**: the order-tracked 1x phasors (:mod:`.order_tracking`, the
-  comparison's windows) with the continuous model's superposed response at the same speeds;
+* **1x Bode and polar plots**: the order-tracked 1x phasors
+  (:mod:`rotor_avc.analysis.order_tracking`, the comparison's windows) with the continuous
+  model's superposed response at the same speeds;
 * **orbits** of the bearing housings (or any point with two transverse outputs) at chosen
   speeds: the displacement in their plane over the whole revolutions of the order-tracking window
   nearest to the speed -- raw (the recorded velocities or accelerations integrated, trend removed
   after each step) and 1x filtered (``Re{V / (j Omega)^k e^{j theta}}`` for a k-th derivative);
-* **API 684 checks** (:mod:`.api684`) of each channel's 1x amplitude, measured and modelled.
+* **API 684 checks** (:mod:`rotor_avc.analysis.api684`) of each channel's 1x amplitude,
+  measured and modelled.
 """
 from __future__ import annotations
 
