@@ -135,7 +135,7 @@ def test_mcap_reader_with_mcap_ros2_decoder(bag):
         for f in FEET:
             np.testing.assert_array_equal(acc[f], data["acc"][f])
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
-        assert set(meta) == {"rotor_avc", "rosbag2"}
+        assert set(meta) == {"rotor_avc", "rotor_avc_counts", "rosbag2"}
         info = load_yaml(meta["rosbag2"]["serialized_metadata"])
         assert info["version"] == 9 and info["storage_identifier"] == "mcap"
         assert info["message_count"] == sum(counts.values())

@@ -102,7 +102,8 @@ def plant_sample(listener, executor) -> int:
 def test_a_recorder_stopping_mid_run_ends_the_lockstep_run(tmp_path, sig):
     """The plant (open loop, so it runs as fast as the recorder takes) ends with exit status 1
     and says at which sample the bag stops; a recorder ended by SIGINT/SIGTERM leaves a
-    finished bag that holds a gapless prefix of the run."""
+    finished bag that holds a prefix of the run, gapless but for the sample it was taking when
+    it stopped (whose messages on some topics had not arrived yet)."""
     from diagnostic_msgs.msg import DiagnosticArray
     from rotor_avc.nodes.runtime import make_executor
     sc = scenario_file(tmp_path, "foot_mount_case2", 20.0, duration_s=60.0)
@@ -143,8 +144,10 @@ def test_a_recorder_stopping_mid_run_ends_the_lockstep_run(tmp_path, sig):
         assert rec.returncode == 0 and "Traceback" not in rec_out, rec_out
         with BagReader(bag) as r:
             report = check_sequence(r, 300_000)
-            assert report.samples >= 20_000
-            assert not report.gaps
+        assert report.samples >= 20_000
+        last = (report.samples - 1) * report.sample_period_s
+        for gap in report.gaps:
+            assert gap.ranges_s[0][0] >= last - 2e-3 and gap.missing <= 10, gap.describe()
 
 
 def test_lost_messages_are_counted_and_said_everywhere(tmp_path):
@@ -157,21 +160,22 @@ def test_lost_messages_are_counted_and_said_everywhere(tmp_path):
     from rotor_avc.nodes import messages as m
     from rotor_avc.nodes.recorder import Recorder
     rclpy.init()
+    nodes, ex = [], make_executor("events")
     try:
         bag = tmp_path / "lossy.mcap"
         rec = Recorder("rec_lossy", parameter_overrides=params(
             scenario="scenario_case3_steady", path=str(bag)))
         driver = rclpy.create_node("driver_outside_the_package")   # a plain rclpy publisher
+        watch = rclpy.create_node("diag_watch")
+        nodes = [rec, driver, watch]
         topic = "/avc/foot/DL/acceleration"
         pub = driver.create_publisher(AccelStamped, topic, m.LOCKSTEP_QOS)
         diag = driver.create_publisher(DiagnosticArray, "/diagnostics", 10)
         said = []
-        watch = rclpy.create_node("diag_watch")
         watch.create_subscription(DiagnosticArray, "/diagnostics", lambda a: said.extend(
             kv.key for st in a.status if st.name == "rec_lossy: recording" for kv in st.values),
             10)
-        ex = make_executor("events")
-        for n in (rec, driver, watch):
+        for n in nodes:
             ex.add_node(n)
         assert spin_until(ex, lambda: topic in rec.channels and pub.get_subscription_count() > 0)
         msg = m.StampedVector("acceleration", "DL")
@@ -179,15 +183,17 @@ def test_lost_messages_are_counted_and_said_everywhere(tmp_path):
             pub.publish(msg.fill(k * 200_000, 1.0))
         assert spin_until(ex, lambda: rec.counts.get(topic) == 100)
         # the driver says it published 130 (30 never reached the recorder)
+        assert spin_until(ex, lambda: diag.get_subscription_count() >= 2)
         diag.publish(m.diagnostics(0, [("driver_outside_the_package" + m.PUBLISHED_SUFFIX,
                                         "ok", "", {topic: 130})]))
         assert spin_until(ex, lambda: rec.losses() == {topic: 30})
         assert spin_until(ex, lambda: f"{topic} lost" in said, timeout_s=10)
-        ex.shutdown()
-        rec.close()
-        for n in (rec, driver, watch):
-            n.destroy_node()
     finally:
+        ex.shutdown()
+        for n in nodes:
+            if n is nodes[0]:
+                n.close()
+            n.destroy_node()
         rclpy.shutdown()
     with BagReader(bag) as r:
         assert r.counts[topic] == {"published": 130, "recorded": 100, "lost": 30}

@@ -112,8 +112,8 @@ def test_replay_command_checks_a_controller(tmp_path, run, changed):
 
 def test_timed_replay_keeps_the_recorded_timing(run):
     """`rotor-avc replay --rate 0.5` (its own process): the 0.2 s of DL accelerations take
-    0.4 s at a listener here -- every message, on the scaled schedule (none ahead of it, nearly
-    all within a few ms of it), values and order as recorded, under the remapped name."""
+    0.4 s at a listener here -- every message, on the scaled schedule (none ahead of it, and no
+    drift from it), values and order as recorded, under the remapped name."""
     _, bag = run
     rate = 0.5
     topic = "/timed/foot/DL/acceleration"
@@ -148,7 +148,9 @@ def test_timed_replay_keeps_the_recorded_timing(run):
     lateness = arrival - schedule                   # + a constant: when the replay started
     typical = np.median(lateness)
     assert np.min(lateness - typical) > -0.03       # none ahead of the schedule (+ jitter)
-    assert np.percentile(lateness, 90) - np.percentile(lateness, 10) < 0.05
+    # no drift: the schedule is absolute, so late messages (a busy machine) do not delay the
+    # later ones -- the typical lateness at the end is not above that at the start
+    assert np.median(lateness[-100:]) - np.median(lateness[:100]) < 0.05
     assert lateness[-1] - typical < 1.0
 
 

@@ -39,6 +39,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 
 from ..bag.reader import BagReader
+from ..bag.sequence import check_sequence
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
 from . import signals
@@ -54,7 +55,7 @@ class GraphRun:
 
     bag: Path
     wall_s: float
-    steps: int
+    steps: int                       # samples of the run in the bag (rotor_avc.bag.sequence)
     logs: dict[str, str]
     counts: dict[str, dict[str, int | None]]
 
@@ -149,7 +150,8 @@ def run_graph(scenario_name: str, bag: Path, log_dir: Path,
                             + _tail(procs[recorder][1]))
     with BagReader(bag) as reader:
         counts = reader.counts or {}
-    return GraphRun(bag, wall, listener.total, logs, counts)
+        samples = check_sequence(reader).samples
+    return GraphRun(bag, wall, samples, logs, counts)
 
 
 def _stop(procs: list[subprocess.Popen]) -> None:
@@ -173,7 +175,6 @@ class _Progress:
 
     def __init__(self, callback):
         self.callback = callback
-        self.total = 0
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node("rotor_avc_graph_progress", context=self.context)
@@ -187,7 +188,6 @@ class _Progress:
                 values = {kv.key: kv.value for kv in st.values}
                 if "sample" in values and "samples_total" in values:
                     k, n = int(values["sample"]), int(values["samples_total"])
-                    self.total = n
                     if self.callback is not None:
                         self.callback(k, n)
 

@@ -243,7 +243,6 @@ class PlantSimulator(Node):
             return                            # the real-time tick takes sample 0 when due
         self._publish_sample()
 
-    # -- lockstep -------------------------------------------------------------------------------
     # -- the recorder handshake (lockstep) -------------------------------------------------------
     def _sent(self) -> dict[str, int]:
         """Messages of the run per topic the recorder must take: what the plant published on
@@ -306,6 +305,7 @@ class PlantSimulator(Node):
             self.recorder_lagging = self.draining = False
             self._finish(complete=False)
 
+    # -- lockstep -------------------------------------------------------------------------------
     def _publish_sample(self, begin: bool = True) -> None:
         """Publish sample k (again, with ``begin=False``: a resend of the same stamp). In
         lockstep this is the timed loop iteration; real time times its whole tick."""
@@ -383,6 +383,7 @@ class PlantSimulator(Node):
         if self.k >= self.n_steps:
             self._finish()
             return
+        self.allowance -= 1                  # one more sample ahead of the recorder's progress
         if self._recorder_holds_back():
             return
         self._publish_sample()

@@ -16,8 +16,9 @@ The scenario's whole configuration goes into the bag's metadata, so the bag is s
 
 Two sources (parameter ``source``):
 
-* ``dds`` (default): reliable KEEP_ALL subscriptions, transient-local where every publisher of
-  the topic offers it (the lockstep topics do), the recorder in its own process or any;
+* ``dds`` (default): reliable KEEP_ALL subscriptions, made once a topic has a publisher, with
+  transient-local durability where every publisher of the topic offers it (the lockstep topics
+  do; ``/diagnostics`` is always volatile), the recorder in its own process or any;
 * ``process``: the recorder is composed into one process with the nodes it records
   (rotor_avc.nodes.graph, ``composed``) and takes their messages from the in-process taps
   (rotor_avc.nodes.taps) as they are published -- lossless and about ten times cheaper than a
@@ -100,6 +101,7 @@ class _Channel:
         self.recorded = 0
         self.lost = 0                 # reported lost by DDS
         self.published_remote = {}    # node -> count, from the nodes' /diagnostics
+        self.first_report = {}        # node -> the count in the first report received
 
 
 class Recorder(Node):
@@ -194,8 +196,8 @@ class Recorder(Node):
                 incompatible_qos=lambda info, n=name: self.get_logger().error(
                     f"{n}: a publisher's QoS is incompatible with the recording subscription "
                     f"({info.last_policy_kind}): its messages are not recorded"))
-            late = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                       for i in infos)
+            late = name != "/diagnostics" and all(
+                i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
             self._subs[name] = self.create_subscription(
                 cls, name, ch.queue.append, RECORD_QOS_LATE_JOINER if late else RECORD_QOS,
                 raw=True, event_callbacks=events)
@@ -279,13 +281,19 @@ class Recorder(Node):
                 for kv in st.values:
                     ch = self.channels.get(kv.key)
                     if ch is not None and kv.value.isdigit():
-                        ch.published_remote[node] = max(int(kv.value),
-                                                        ch.published_remote.get(node, 0))
+                        count = int(kv.value)
+                        if ch.name == "/diagnostics":     # counted from its first report on
+                            first = ch.first_report.setdefault(node, count)
+                            count = count - first + 1
+                        ch.published_remote[node] = max(count, ch.published_remote.get(node, 0))
 
     def published(self) -> dict[str, int | None]:
         """Messages published per topic, from the publishers' side: by the counted publishers of
         this process since the recorder was created, plus what the nodes of other processes
-        reported on /diagnostics; None when no publisher reported."""
+        reported on /diagnostics; None when no publisher reported. ``/diagnostics`` itself is
+        subscribed volatile (tools outside the package publish it so) and a node's count on it
+        runs from the first of its reports the recorder received: what a node said before the
+        recording began is not the recording's loss."""
         local = {t: n - self._baseline.get(t, 0) for t, n in taps.process_counts().items()}
         out = {}
         for name, ch in self.channels.items():

@@ -26,7 +26,7 @@ from ..scenario import load_scenario
 from . import signals
 
 EXECUTORS = ("events", "single_threaded", "multi_threaded")
-FINAL_DIAGNOSTICS_WAIT_S = 0.5
+FINAL_DIAGNOSTICS_WAIT_S = 5.0       # returns as soon as every subscriber has the message
 
 
 class ParameterError(RotorAvcError):
