@@ -26,6 +26,7 @@ setup(
         "mcap>=1.1",
         "zstandard",           # imported by rotor_avc.bag (also a dependency of mcap)
         "lz4",                 # imported by rotor_avc.bag.mcap_writer (also one of mcap)
+        "plotly>=5",             # its bundled plotly.js, embedded in the interactive reports
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)

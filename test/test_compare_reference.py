@@ -2,6 +2,7 @@
 config/scenario_reference.yaml gives the same messages (so it cannot go stale silently), and
 `rotor-avc compare` passes on it and writes the report."""
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,8 @@ from rotor_avc.bag import BagReader
 from rotor_avc.cli import main
 from rotor_avc.recording import write_run_bag
 from rotor_avc.scenario import load_scenario
+
+from browser_check import check_report
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "bags" / "reference" / "case3_stepped.mcap"
@@ -63,3 +66,6 @@ def test_compare_passes_on_the_reference_bag(tmp_path, capsys):
         assert (out / name).stat().st_size > 0, name
     rows = (out / "frf.csv").read_text().splitlines()
     assert len(rows) == 1 + 3 * len(data["one_x"]["channels"])
+    text = re.sub(r"<script>.*?</script>", "", (out / "index.html").read_text(), flags=re.S)
+    assert "issue" not in text.lower()           # the report speaks of the run and the machine
+    assert check_report(out / "index.html") >= 3

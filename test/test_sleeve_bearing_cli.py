@@ -7,6 +7,8 @@ import pytest
 
 from rotor_avc.cli import main
 
+from browser_check import check_report
+
 POINTS = ("bearing", "foundation_L", "foundation_R", "actuator_L", "actuator_R")
 EXCITATIONS = ("mass_eccentricity", "magnetic_eccentricity", "bent_rotor")
 
@@ -53,6 +55,7 @@ def test_study_writes_tables_and_plots(tmp_path, capsys):
     red = [float(r["bearing_vz@1142rpm_reduction_window_pct"]) for r in rows]
     assert red[0] == 0.0 and np.all(np.diff(red) > 0)
     assert "bearing_vz@1142rpm" in capsys.readouterr().out
+    assert check_report(stem.parent / (stem.name + ".html")) >= 4
 
 
 @pytest.mark.parametrize("argv,message", [

@@ -12,6 +12,8 @@ from rotor_avc.cli import main
 from rotor_avc.config import find_config, load_config
 from rotor_avc.errors import ConfigError
 
+from browser_check import check_report
+
 F, B, H = "foundation.stiffness_n_per_m", "bearings.stiffness_n_per_m", "housings.stiffness_n_per_m"
 
 
@@ -173,6 +175,7 @@ def test_cli_map_and_campbell_files(tmp_path, capsys):
     rows = (tmp_path / "map" / "thresholds.csv").read_text().splitlines()
     assert len(rows) == 5 and "threshold_rpm" in rows[0]
     assert (tmp_path / "map" / "threshold_map.png").stat().st_size > 1000
+    assert check_report(tmp_path / "map" / "index.html") == 1
     assert main(["stability", "roller_bearing_stability", "--variant", "demo", "--out",
                  str(tmp_path / "one")]) == 0
     assert "4426" in capsys.readouterr().out

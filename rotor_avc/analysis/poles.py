@@ -30,6 +30,9 @@ class PoleResult:
     w_F: float
     poles: np.ndarray
     history: list[float] = field(default_factory=list)
+    #: per-pole damping frequency where the procedure damps every mode on its own (else None:
+    #: every pole at ``w_F``)
+    mode_w_F: np.ndarray | None = None
 
     @property
     def stable(self) -> bool:
@@ -112,7 +115,7 @@ def whirl_iteration_poles(machine, speed_rad_s: float) -> PoleResult:
     and the one-entry history are the least damped pole's."""
     res = per_mode_poles(machine.loop, speed_rad_s, rel_tol=machine.analysis.whirl_iteration.rel_tol)
     w_F = float(res.w_F[res.critical])
-    return PoleResult(speed_rad_s, w_F, res.poles, [w_F])
+    return PoleResult(speed_rad_s, w_F, res.poles, [w_F], mode_w_F=res.w_F)
 
 
 #: ``analysis.pole_method`` (rotor_avc.settings.POLE_METHODS) -> ``f(machine, speed_rad_s) ->

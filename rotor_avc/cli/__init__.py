@@ -14,10 +14,12 @@ import sys
 from ..errors import RotorAvcError
 
 COMMANDS = [
-    "poles", "frf", "controller", "simulate", "compare",     # any machine
+    "poles", "campbell", "frf", "controller", "simulate", "compare",     # any machine
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
+    "api684",                                                # standard checks of a model
     "demo",                                                  # the main job
     "replay",                                                # bags into the ROS graph
+    "runup",                                                 # views of a recorded run-up
 ]
 
 

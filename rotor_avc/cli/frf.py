@@ -8,7 +8,7 @@ import numpy as np
 from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
-from .common import speed_range_hz
+from .common import config_frf_speeds_hz, speed_range_hz
 
 NAME = "frf"
 HELP = ("Synchronous (unbalance) frequency responses over rotor speed of every output and "
@@ -28,11 +28,7 @@ def run(args) -> int:
     machine = load_machine(args.config)
     speeds_hz = args.speed_hz
     if speeds_hz is None:
-        rng = machine.analysis.frf_speed_hz
-        if rng is None:
-            raise machine.config.section("analysis", {}).error(
-                "frf_speed_hz", "missing", fix="add `frf_speed_hz: {start, stop, n}` or give --speed-hz")
-        speeds_hz = np.linspace(rng.start, rng.stop, rng.n)
+        speeds_hz = config_frf_speeds_hz(machine)
     frf = unbalance_frf(machine.loop, 2 * np.pi * speeds_hz)
     args.out.mkdir(parents=True, exist_ok=True)
     csv_path = write_frf_csv(frf, args.out / "frf.csv")

@@ -10,6 +10,7 @@ from ..analysis.stability_threshold import STATUSES
 from ..config import load_config
 from ..errors import ConfigError
 from ..reports.stability_files import plot_campbell, plot_map, write_study_rows, write_threshold
+from ..reports.stability_report import write_stability_study_html
 
 NAME = "stability"
 HELP = ("Threshold of stability of a machine with loss-factor and internal damping (eigenvalues "
@@ -95,6 +96,8 @@ def _run_study(cfg, varies, args) -> int:
     if args.out:
         write_study_rows(rows, args.out / "thresholds.csv")
         path = plot_map(study, args.out / "threshold_map.png")
+        report = write_stability_study_html(study, args.out / "index.html",
+                                            f"{cfg.string('name', 'machine')}: threshold of stability")
         if not args.json:
-            print(f"wrote {args.out / 'thresholds.csv'} and {path}")
+            print(f"wrote {args.out / 'thresholds.csv'}, {path} and {report}")
     return 0

@@ -1,5 +1,5 @@
 """``rotor-avc study``: controller gain sweeps -- resonance shifts, reductions, actuator forces
-(seed 001 Sec. 4, Figs. 5-13), as CSV and PNG."""
+(seed 001 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page."""
 from __future__ import annotations
 
 from pathlib import Path

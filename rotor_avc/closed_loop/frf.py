@@ -7,7 +7,9 @@ At each rotor speed ``Omega`` the excitation phasor ``F(Omega)`` drives the clos
     output   = (j Omega)^order  row . q           (A2, A3)
     force_i  = -H_i(j Omega) s_i^T q              (A4, eqs. 153-156)
 
-All speeds are solved in one batched LAPACK call (2,000 speeds of the 18-DOF loop in a few ms).
+Where the dynamic stiffness is a polynomial in the speed, one modal decomposition serves every
+speed (:mod:`rotor_avc.closed_loop.modal_frf`); otherwise all speeds are solved in one batched
+LAPACK call.
 Response names are ``<output>_<excitation>``, e.g. ``bearing_D_vz_static``, and for forces
 ``actuator_<id>_f<axis>_<excitation>``; values are per unit excitation amplitude (per kg m for
 static, per kg m^2 for moment unbalance).
@@ -20,6 +22,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .loop import ClosedLoop
+from .modal_frf import solve_over_speed
 
 
 @dataclass
@@ -61,16 +64,18 @@ def unbalance_frf(loop: ClosedLoop, speed_rad_s, excitations=None, w_F=None,
     excs = plant.excitations if excitations is None else [plant.excitation(e) for e in excitations]
     w_F = plant.forced_damping_frequency(speeds) if w_F is None else np.broadcast_to(w_F, speeds.shape)
     s = 1j * speeds
-    Z = loop.dynamic_stiffness(s, speeds, w_F)
     accel = np.broadcast_to(np.asarray(accel_rad_s2, dtype=float), speeds.shape)
     F = np.stack([e.phasor(speeds, accel) for e in excs], axis=-1)   # (N, n, m)
-    Q = np.linalg.solve(Z, F)                                        # (N, n, m)
+    Q = solve_over_speed(loop, speeds, np.asarray(w_F, dtype=float), F)   # (N, n, m)
     names, rows, orders = plant.output_rows()
-    out_q = np.einsum("kn,Nnm->Nkm", rows, Q) * (s[:, None, None] ** orders[None, :, None])
+    derivative = np.stack([np.ones_like(s), s, s * s], axis=-1)[:, orders]        # (N, k)
+    N, n, m = Q.shape
+    out_q = (Q.transpose(0, 2, 1).reshape(N * m, n) @ rows.T).reshape(N, m, -1)    # (N, m, k)
+    out_q *= derivative[:, None, :]
     result = SpeedFrf(speeds, {}, {}, {})
     for k, out in enumerate(plant.outputs):
         for j, e in enumerate(excs):
-            result.add(out.name, e.name, out_q[:, k, j], f"{out.unit}/({e.unit})")
+            result.add(out.name, e.name, out_q[:, j, k], f"{out.unit}/({e.unit})")
     force_rows = loop.force_rows(s)
     for act_id, axis in plant.force_points:
         row = force_rows.get(act_id)

@@ -13,11 +13,11 @@
 * ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
   sampled-loop model solid, continuous dashed), ``broadband_<speed>.png`` (H1, H2, both models,
   coherence) and ``poles.png`` (continuous and sampled-loop poles at the run's speeds);
-* ``index.html``: the verdict, the checks, the settings and every plot embedded as base64.
+* ``index.html``: the verdict, the checks, the settings and interactive plots of the same data
+  (:mod:`rotor_avc.interactive.page`: self-contained, zoom, pan, values on hover).
 """
 from __future__ import annotations
 
-import base64
 import csv
 import html
 import json
@@ -28,29 +28,15 @@ import numpy as np
 
 from .comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
                                    TOL_RESONANCE_PCT, Comparison)
+from .figures import broadband_figures, one_x_figures, poles_figure
+from ..interactive.page import page as interactive_page
+from ..interactive.jsonable import jsonable as _clean
 
 ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "
               f"within {TOL_OFF_RESONANCE_DB:g} dB away from resonances and "
               f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
-              f"{TOL_RESONANCE_PCT:g} % (issue 6).")
+              f"{TOL_RESONANCE_PCT:g} %.")
 STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
-
-
-def _clean(value):
-    """JSON-safe: numpy -> Python, NaN/inf -> None."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _clean(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, complex):
-        return {"re": _clean(value.real), "im": _clean(value.imag)}
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
 
 
 def _summary(c: dict) -> dict:
@@ -292,26 +278,26 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
                      "yes" if q["sampled_stable"] else "NO"] for q in data["poles"]],
                    ["speed [Hz]", "w_F [rad/s]", "continuous max Re s [1/s]",
                     "sampled max |z|", "sampled loop stable"])
-    imgs = "".join(f"<h3>{html.escape(p.name)}</h3><img src='data:image/png;base64,"
-                   f"{base64.b64encode(p.read_bytes()).decode()}'/>" for p in pngs)
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in comp.notes)
-    page = f"""<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>rotor-avc compare: {html.escape(data['bag'])}</title>
-<style>body{{font-family:sans-serif;margin:1.5em;max-width:1400px}} table{{border-collapse:collapse;
-margin:0.6em 0}} td,th{{border:1px solid #bbb;padding:2px 6px;font-size:13px;text-align:left}}
-img{{max-width:100%}} .v{{font-size:20px;font-weight:bold}}</style></head><body>
-<h1>Comparison of a recorded run with the models</h1>
-<p class="v">{verdict}</p><p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>.</p>
-{checks}<h2>Continuous model (the papers' FRFs), for reference</h2>{ref}
-<h2>Run</h2>{_table(info, ["item", "value"])}
-<h2>Resonances (measured vs model)</h2>
-{_table(res_rows, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
-                   "peak error [dB]"])}
-<h2>Poles with the run's damping</h2>{poles}
-<h2>Notes</h2><ul>{notes or "<li>none</li>"}</ul><h2>Plots</h2>{imgs}
-<p>Files: frf.csv, metrics.json and the PNGs next to this page.</p></body></html>
-"""
-    path.write_text(page)
+    files = ", ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.name)}</a>'
+                      for p in pngs)
+    css_verdict = "pass" if comp.passed else "fail"
+    blocks = [f'<p class="{css_verdict}" style="font-size:20px">{verdict}</p>'
+              f"<p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>.</p>", checks,
+              "<h2>Continuous model (the papers' FRFs), for reference</h2>", ref,
+              "<h2>Run</h2>", _table(info, ["item", "value"]),
+              "<h2>Resonances (measured vs model)</h2>",
+              _table(res_rows, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
+                                "peak error [dB]"]),
+              "<h2>Poles with the run's damping</h2>", poles, *poles_figure(comp),
+              f"<h2>Notes</h2><ul>{notes or '<li>none</li>'}</ul>"]
+    if comp.one_x is not None:
+        blocks += ["<h2>1x response over speed</h2>", *one_x_figures(comp)]
+    if comp.broadband:
+        blocks += ["<h2>Broadband FRFs</h2>", *broadband_figures(comp)]
+    blocks.append(f"<p>Files next to this page: frf.csv, metrics.json and the PNGs ({files}).</p>")
+    path.write_text(interactive_page(f"Comparison of a recorded run with the models: "
+                                     f"{data['bag']}", blocks))
     return path
 
 

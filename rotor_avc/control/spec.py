@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -87,6 +88,12 @@ class ContinuousController:
         return s**self.order * self(s)
 
     def law_split(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Split ``H = s^k G_c`` into ``h2 s^2 + h1 s + h0`` plus a strictly proper remainder
+        (computed once per controller; see :attr:`_split`)."""
+        return self._split
+
+    @cached_property
+    def _split(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Split ``H = s^k G_c`` into ``h2 s^2 + h1 s + h0`` plus a strictly proper remainder.
 
         Returns ``(h, rem_num, rem_den)`` with ``h = [h0, h1, h2]``; common factors of ``s``

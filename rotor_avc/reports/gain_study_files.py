@@ -1,5 +1,5 @@
 """Files of `rotor-avc study` (seed 001 gain studies): the curves and the per-gain summary (CSV)
-and their plots."""
+and their plots (PNG and an interactive HTML page)."""
 from __future__ import annotations
 
 import csv
@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..analysis.gain_study import GainStudy
 from ..control.spec import FEEDBACK_ORDER
+from .study_report import write_study_html
 
 
 #: paper units for the plots: (mm/s)/um for velocities per metre, N/um for forces per metre
@@ -90,6 +91,7 @@ def plot_gain_study(study: GainStudy, stem: Path) -> list[Path]:
     paths.append(stem.with_name(stem.name + "_resonances.png"))
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
+    paths.append(write_study_html(study, stem.with_name(stem.name + ".html"), glabel))
     return paths
 
 

@@ -1,0 +1,104 @@
+"""``rotor-avc runup``: the views of a recorded run-up -- waterfall, 1x Bode and polar plots,
+orbits and API 684 checks, measured and modelled."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.api684 import format_table
+from ..compare.recorded_run import read_run
+from ..compare.runup_views import (api684_tables, channel_unit, housing_channels, one_x_track,
+                                    orbit_pairs, orbits, run_waterfall)
+from ..interactive.jsonable import jsonable
+from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
+from ..reports.runup_report import api_rows, write_runup_html
+
+NAME = "runup"
+HELP = ("Run-up views of a bag: waterfall (spectra over speed, orders marked), 1x Bode and polar "
+        "plots per channel against the bag's model, bearing-housing orbits, and API 684 "
+        "unbalance-response checks of the measured and the modelled 1x.")
+EXAMPLE = "rotor-avc runup runup.mcap --operating-hz 28:30 --orbit-hz 10,20 --out out/runup"
+
+
+def _hz_list(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if not values or min(values) <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: give positive speeds in Hz, e.g. 10,20")
+    return values
+
+
+def operating_range(text: str) -> tuple[float, float]:
+    """``MIN:MAX`` in Hz -> (min, max), 0 < MIN <= MAX."""
+    try:
+        lo, hi = (float(v) for v in text.split(":"))
+    except ValueError:
+        lo = hi = -1.0
+    if not 0 < lo <= hi:
+        raise argparse.ArgumentTypeError(f"{text!r}: give MIN:MAX in Hz with 0 < MIN <= MAX")
+    return lo, hi
+
+
+def add_arguments(p) -> None:
+    p.add_argument("bag", type=Path, help="a run-up recorded by `rotor-avc simulate` or the recorder")
+    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--channels", nargs="+", default=None, metavar="NAME",
+                   help="channels for the 1x plots, orbits and API 684 checks (default: the "
+                        "bearing housings' outputs, else every output of the plant)")
+    p.add_argument("--waterfall-channel", default=None,
+                   help="channel of the waterfall (default: the first of --channels)")
+    p.add_argument("--window-s", type=float, default=1.0, help="waterfall window length [s]")
+    p.add_argument("--orbit-hz", type=_hz_list, default=None, metavar="F,F",
+                   help="speeds of the orbit plots in Hz (default: 1/3 and 2/3 of the top speed)")
+    p.add_argument("--operating-hz", type=operating_range, default=None, metavar="MIN:MAX",
+                   help="operating speed range for the API 684 separation margins (default: the "
+                        "speed the run ends at)")
+    p.add_argument("--speed-unit", choices=("hz", "rpm"), default="rpm",
+                   help="speed axis of the PNGs and the report's initial choice")
+
+
+def run(args) -> int:
+    run_ = read_run(args.bag)
+    channels = args.channels or housing_channels(run_)
+    track = one_x_track(run_, channels)
+    top_hz = float(track.speed_hz.max())
+    operating = args.operating_hz or (float(run_.speed_rad_s[-1] / (2 * np.pi)),) * 2
+    wf_channel = args.waterfall_channel or channels[0]
+    wf = run_waterfall(run_, wf_channel, args.window_s)
+    orbit_speeds = args.orbit_hz or [top_hz / 3, 2 * top_hz / 3]
+    orbs = orbits(run_, track, orbit_speeds)
+    tables = api684_tables(track, operating)
+    args.out.mkdir(parents=True, exist_ok=True)
+    unit = args.speed_unit
+    written = [plot_waterfall(wf, channel_unit(run_, wf_channel), args.out / "waterfall.png", unit)]
+    for c in channels:
+        written.append(plot_bode(track, c, args.out / f"bode_{c}.png", unit))
+        written.append(plot_polar(track, c, args.out / f"polar_{c}.png", unit))
+    if orbs:
+        written.append(plot_orbits(orbs, args.out / "orbits.png", unit))
+    (args.out / "api684.json").write_text(json.dumps(jsonable({
+        "operating_speed_hz": list(operating),
+        "channels": {c: {k: api_rows(v) for k, v in both.items()} for c, both in tables.items()}}),
+        indent=1))
+    name = run_.machine.plant.name
+    summary = [("bag", str(run_.path)), ("machine", name),
+               ("speed range", f"{track.speed_hz.min():.4g} .. {top_hz:.4g} Hz"),
+               ("sample rate", f"{1 / run_.sample_period_s:g} Hz"),
+               ("damping", run_.scenario.damping.describe()),
+               ("1x order tracking", track.method)] + [("note", n) for n in run_.notes]
+    report = write_runup_html(args.out / "index.html", f"{name}: run-up", summary, wf,
+                              channel_unit(run_, wf_channel), track, orbs, tables, operating, unit)
+    for c, both in tables.items():
+        for kind, checks in both.items():
+            print(f"API 684, {c} ({kind}):")
+            print(format_table(checks, track.units[c], operating))
+    if not orbit_pairs(run_, channels):
+        print("no orbit: the channels hold no point with two transverse outputs of one kind")
+    for path in written + [args.out / "api684.json", report]:
+        print(f"wrote {path}")
+    return 0

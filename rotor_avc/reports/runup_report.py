@@ -1,0 +1,110 @@
+"""``index.html`` of ``rotor-avc runup``: waterfall, 1x Bode and polar plots, orbits and the
+API 684 tables of a recorded run-up, interactive (:mod:`rotor_avc.interactive.page`)."""
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from ..compare.runup_views import OneXTrack, Orbit, Waterfall
+from ..interactive.page import Figure, page, table_html
+from .runup_plots import ORDERS
+
+API_COLUMNS = [("speed_hz", "N_c [Hz]"), ("speed_rpm", "N_c [rpm]"), ("peak", "peak"),
+               ("amplification_factor", "AF"), ("n1_hz", "N_1 [Hz]"), ("n2_hz", "N_2 [Hz]"),
+               ("position", "position"), ("separation_margin_pct", "SM [%]"),
+               ("required_margin_pct", "SM required [%]"), ("verdict", "verdict")]
+VERDICT_CLASS = {"verdict": lambda v: {"pass": "pass", "fail": "fail"}.get(v, "")}
+
+
+def waterfall_figure(wf: Waterfall, unit: str) -> Figure:
+    top = 1.2 * max(ORDERS) * wf.speed_hz.max()
+    sel = wf.freq_hz <= top
+    traces = [{"type": "heatmap", "x": wf.speed_hz, "y": wf.freq_hz[sel], "z": wf.amplitude[:, sel].T,
+               "colorscale": "Magma", "colorbar": {"title": {"text": unit}},
+               "hovertemplate": "speed %{x:.4g}<br>f %{y:.4g} Hz<br>amplitude %{z:.4g}<extra></extra>"}]
+    traces += [{"type": "scatter", "mode": "lines", "name": f"{k}x", "x": wf.speed_hz,
+                "y": k * wf.speed_hz, "line": {"color": "white", "dash": "dash", "width": 1}}
+               for k in ORDERS]
+    return Figure("waterfall", f"waterfall of {wf.channel} (amplitude spectra over speed)", traces,
+                  y_title="frequency [Hz]", unit=unit, magnitude_key="z",
+                  layout={"yaxis": {"range": [0, top]}, "showlegend": False}, height_px=520)
+
+
+def bode_figures(track: OneXTrack, channel: str) -> list[Figure]:
+    unit = track.units[channel]
+    meas, model = track.measured[channel], track.model[channel]
+    x = track.speed_hz
+
+    def pair(values_model, values_meas):
+        return [{"type": "scatter", "mode": "lines", "name": "model (continuous loop)",
+                 "x": track.model_speed_hz, "y": values_model},
+                {"type": "scatter", "mode": "markers", "name": "measured 1x", "x": x,
+                 "y": values_meas, "marker": {"size": 5}}]
+
+    mag = Figure(f"bode-mag-{channel}", f"1x amplitude of {channel}",
+                 pair(np.abs(model), np.abs(meas)), y_title="1x amplitude", unit=unit,
+                 magnitude_key="y")
+    phase = Figure(f"bode-phase-{channel}", f"1x phase of {channel}",
+                   pair(np.degrees(np.angle(model)), np.degrees(np.angle(meas))),
+                   y_title="1x phase [deg]", height_px=300)
+    def speeds(values):
+        return [f"{f:.4g} Hz / {f * 60:.0f} rpm" for f in values]
+
+    polar = Figure(f"polar-{channel}", f"1x polar plot of {channel}",
+                   [{"type": "scatter", "mode": "lines", "name": "model (continuous loop)",
+                     "x": model.real, "y": model.imag, "text": speeds(track.model_speed_hz)},
+                    {"type": "scatter", "mode": "lines+markers", "name": "measured 1x",
+                     "x": meas.real, "y": meas.imag, "text": speeds(x), "marker": {"size": 5}}],
+                   x_title=f"Re [{unit}]", y_title=f"Im [{unit}]", speed_axis=None,
+                   layout={"yaxis": {"scaleanchor": "x"}}, height_px=520)
+    return [mag, phase, polar]
+
+
+def orbit_figure(orbits: list[Orbit]) -> Figure:
+    traces = []
+    for o in orbits:
+        name = f"{o.point} at {o.speed_hz:.4g} Hz ({o.speed_hz * 60:.0f} rpm)"
+        traces.append({"type": "scatter", "mode": "lines", "name": name + " raw",
+                       "x": o.raw_m[:, 0] * 1e6, "y": o.raw_m[:, 1] * 1e6, "line": {"width": 0.6}})
+        traces.append({"type": "scatter", "mode": "lines", "name": name + " 1x",
+                       "x": o.one_x_m[:, 0] * 1e6, "y": o.one_x_m[:, 1] * 1e6, "line": {"width": 2}})
+    a, b = orbits[0].axes
+    return Figure("orbits", "orbits (click legend entries to show or hide)", traces,
+                  x_title=f"{a.rpartition('_')[2]} displacement [um]",
+                  y_title=f"{b.rpartition('_')[2]} displacement [um]", speed_axis=None,
+                  layout={"yaxis": {"scaleanchor": "x"}}, height_px=560)
+
+
+def api_rows(checks) -> list[dict]:
+    return [{**c.row(), "speed_rpm": c.speed_hz * 60} for c in checks]
+
+
+def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], wf: Waterfall,
+                     wf_unit: str, track: OneXTrack, orbits: list[Orbit], tables: dict,
+                     operating_hz, speed_unit: str) -> Path:
+    lo, hi = operating_hz
+    blocks = ["<h2>Run</h2>", table_html([{"k": k, "v": v} for k, v in summary],
+                                         [("k", "item"), ("v", "value")]),
+              "<h2>Waterfall</h2>", waterfall_figure(wf, wf_unit),
+              f"<h2>API 684 unbalance-response checks</h2><p class=\"note\">Operating speed range "
+              f"{lo:g} .. {hi:g} Hz ({lo * 60:.0f} .. {hi * 60:.0f} rpm). Amplification factor by "
+              "the half-power method, AF = N_c / (N_2 - N_1); required separation margin "
+              "min(16, 17 (1 - 1/(AF - 1.5))) % below the range, min(26, 10 + 17 (1 - 1/(AF - 1.5))) % "
+              "above it, none for AF &lt; 2.5 (API 617 / API 684).</p>"]
+    for channel, both in tables.items():
+        for kind in ("measured", "model"):
+            rows = api_rows(both[kind])
+            blocks.append(f"<h3>{html.escape(channel)}, {kind} "
+                          f"[{html.escape(track.units[channel])}]</h3>")
+            blocks.append(table_html(rows, API_COLUMNS, VERDICT_CLASS) if rows
+                          else "<p>No resonance peak in the speed range.</p>")
+    blocks.append(f"<h2>1x Bode and polar plots</h2><p class=\"note\">{html.escape(track.method)}; "
+                  "model: the continuous loop of the recorded configuration at the same speeds.</p>")
+    for channel in track.measured:
+        blocks += bode_figures(track, channel)
+    if orbits:
+        blocks += ["<h2>Orbits</h2>", orbit_figure(orbits)]
+    path.write_text(page(title, blocks, default_speed_unit=speed_unit))
+    return path

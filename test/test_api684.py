@@ -1,0 +1,94 @@
+"""API 684 checks against the exact half-power points of a single-degree-of-freedom oscillator
+and the standard's required-margin formulas."""
+import json
+
+import numpy as np
+import pytest
+
+from rotor_avc.analysis.api684 import (check_response, format_table, half_power_points,
+                                       required_margin_pct)
+from rotor_avc.analysis.campbell import campbell_diagram
+from rotor_avc.cli import main
+from rotor_avc.errors import ModelError
+from rotor_avc.machine import load_machine
+
+
+def sdof(speed_hz, fn_hz, zeta):
+    r = speed_hz / fn_hz
+    return 1.0 / np.sqrt((1 - r**2) ** 2 + (2 * zeta * r) ** 2)
+
+
+def exact_af(zeta):
+    """|H| = 1/sqrt((1-r^2)^2 + (2 zeta r)^2): peak at r^2 = 1 - 2 zeta^2, half-power points at
+    r^2 = 1 - 2 zeta^2 -+ 2 zeta sqrt(1 - zeta^2)."""
+    mid, half = 1 - 2 * zeta**2, 2 * zeta * np.sqrt(1 - zeta**2)
+    return np.sqrt(mid) / (np.sqrt(mid + half) - np.sqrt(mid - half))
+
+
+@pytest.mark.parametrize("zeta", [0.01, 0.05, 0.15])
+def test_amplification_factor_of_a_single_mode(zeta):
+    speed = np.linspace(5.0, 95.0, 20001)
+    (c,) = check_response(speed, sdof(speed, 40.0, zeta), operating_hz=(60.0, 80.0))
+    assert c.speed_hz == pytest.approx(40.0 * np.sqrt(1 - 2 * zeta**2), abs=0.01)
+    assert c.amplification_factor == pytest.approx(exact_af(zeta), rel=2e-3)
+    assert c.amplification_factor == pytest.approx(1 / (2 * zeta), rel=0.05)    # API 684 Fig. 2-6
+    assert c.peak == pytest.approx(1 / (2 * zeta * np.sqrt(1 - zeta**2)), rel=1e-4)
+    assert c.position == "below"
+    assert c.separation_margin_pct == pytest.approx(100 * (60.0 - c.speed_hz) / 60.0)
+
+
+def test_required_margins_are_the_standards():
+    assert required_margin_pct(2.0, "below") == 0.0
+    assert required_margin_pct(5.0, "below") == pytest.approx(17 * (1 - 1 / 3.5))
+    assert required_margin_pct(5.0, "above") == pytest.approx(10 + 17 * (1 - 1 / 3.5))
+    assert required_margin_pct(50.0, "below") == 16.0        # caps
+    assert required_margin_pct(50.0, "above") == 26.0
+
+
+def test_verdicts():
+    speed = np.linspace(5.0, 150.0, 20001)
+    amp = sdof(speed, 40.0, 0.02) + sdof(speed, 120.0, 0.02)
+    below, above = check_response(speed, amp, operating_hz=(45.0, 100.0))
+    assert below.position == "below" and below.verdict == "fail"      # 11 % < 16 % required
+    assert above.position == "above" and above.verdict == "fail"      # 20 % < 26 %
+    below, above = check_response(speed, amp, operating_hz=(50.0, 90.0))
+    assert below.verdict == "pass" and above.verdict == "pass"        # 20 % and 33 %
+    (inside, _) = check_response(speed, amp, operating_hz=(30.0, 60.0))
+    assert inside.position == "within" and inside.verdict == "fail"
+    for zeta in (0.3, 0.4):          # 0.4: the response never falls to 0.707 x peak below it
+        heavy = check_response(speed, sdof(speed, 40.0, zeta), operating_hz=(45.0, 100.0))
+        assert [c.verdict for c in heavy] == ["critically damped"]
+    text = format_table(check_response(speed, amp, (50.0, 90.0)), "m/s", (50.0, 90.0))
+    assert "pass" in text and "3000 .. 5400 rpm" in text
+
+
+def test_half_power_outside_the_record_is_undetermined():
+    speed = np.linspace(38.0, 60.0, 500)             # starts above the lower half-power point
+    amp = sdof(speed, 40.0, 0.05)
+    i = int(np.argmax(amp))
+    n1, n2 = half_power_points(speed, amp, i)
+    assert n1 is None and n2 == pytest.approx(40 * np.sqrt(1 - 2 * 0.05**2 + 2 * 0.05 * np.sqrt(1 - 0.05**2)), rel=1e-3)
+
+
+def test_bad_input_is_refused():
+    with pytest.raises(ModelError, match="increase"):
+        check_response([3.0, 2.0, 1.0], [1.0, 2.0, 1.0], (1.0, 2.0))
+    with pytest.raises(ModelError, match="operating speed range"):
+        check_response([1.0, 2.0, 3.0], [1.0, 2.0, 1.0], (0.0, 2.0))
+
+
+def test_model_check_agrees_with_the_campbell_damping(capsys):
+    """An isolated mode of seed 001's motor: AF of the bearing response ~ 1 / (2 zeta) of the
+    mode where it crosses 1x (Campbell diagram, forced-response damping)."""
+    assert main(["api684", "sleeve_bearing_motor", "--operating-hz", "55:65", "--speed-hz",
+                 "5:75:1401", "--responses", "bearing_vz_mass_eccentricity", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    (check,) = data["responses"]["bearing_vz_mass_eccentricity"]
+    assert check["verdict"] == "pass" and check["position"] == "below"
+    cd = campbell_diagram(load_machine("sleeve_bearing_motor"),
+                          2 * np.pi * np.linspace(15.0, 25.0, 41), rule="forced")
+    crossing = min(cd.critical_speeds((1,)), key=lambda r: abs(r["speed_hz"] - check["speed_hz"]))
+    assert crossing["speed_hz"] == pytest.approx(check["speed_hz"], rel=0.01)
+    k = cd.labels.index(crossing["mode"])
+    zeta = np.interp(crossing["speed_hz"], cd.speed_hz, cd.damping_ratio[:, k])
+    assert check["amplification_factor"] == pytest.approx(1 / (2 * zeta), rel=0.1)
