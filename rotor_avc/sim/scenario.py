@@ -15,6 +15,7 @@ A scenario file includes a machine config (``include: foot_mount_case3.yaml``) a
       test_signal: {actuator: DL, kind: white, rms_n: 200.0, band_hz: [2.0, 400.0], seed: 1}
                                     # optional broadband force for FRFs (rotor_avc.sim.broadband)
       balancer: false               # run the config's `balancer:` (rotor_avc.balancing.loop_block)
+      harmonic: false               # run the config's `harmonic:` (rotor_avc.harmonic.config)
 
 Checks (each a :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
 duration; a sample rate above twice the highest rotational frequency and above twice the
@@ -43,7 +44,7 @@ from .stepper import DEFAULT_GRID_TOL, PlantStepper
 from .timeseries import TimeSeries
 
 SIMULATION_KEYS = ("sample_rate_hz", "duration_s", "speed", "unbalance", "damping_at", "balancer",
-                   "feedforward",
+                   "feedforward", "harmonic",
                    "whirl_rad_s", "initial_state", "speed_grid_tol", "test_signal")
 DEFAULT_RELEVANT_MODES = 6
 
@@ -63,6 +64,7 @@ class Scenario:
     #: played by a 1x generator for the run's unbalance), or None
     feedforward_method: str | None = None
     test_force: BroadbandForce | None = None
+    use_harmonic: bool = False
 
     @property
     def n_steps(self) -> int:
@@ -109,11 +111,20 @@ class Scenario:
             return []
         return [a.id for a in self.machine.plant.actuators]
 
-    def run(self, progress: bool | None = None, balancer=None) -> TimeSeries:
+    def harmonic(self):
+        """The run's adaptive harmonic controller (``simulation.harmonic: true``), or None."""
+        if not self.use_harmonic:
+            return None
+        from ..harmonic.config import harmonic_from_config
+        return harmonic_from_config(self.machine, self.sample_period_s,
+                                    self.profile.max_speed_rad_s, self.damping.whirl_rad_s)
+
+    def run(self, progress: bool | None = None, balancer=None, harmonic=None) -> TimeSeries:
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
+        harmonic = self.harmonic() if harmonic is None else harmonic
         return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
-                        feedforward=self.feedforward(),
+                        feedforward=self.feedforward(), harmonic=harmonic,
                         initial_state=self.initial_state, progress=progress, metadata=meta)
 
 
@@ -198,12 +209,10 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     if initial == "steady_state" and profile.sample(np.array(0.0))[0] <= 0:
         raise sim.error("initial_state", "a steady state needs the shaft turning at t = 0",
                         fix="start the speed profile above 0 Hz or use `initial_state: rest`")
-    use_balancer = sim.raw("balancer", False)
-    if not isinstance(use_balancer, bool):
-        raise sim.error("balancer", f"must be true or false (got {use_balancer!r})")
-    if use_balancer and not cfg.has("balancer"):
-        raise sim.error("balancer", "true, but the config has no `balancer:` section",
-                        fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
+    use_balancer = _section_flag(cfg, sim, "balancer", "include a balancer config (e.g. "
+                                 "balancer_foot_mount.yaml)")
+    use_harmonic = _section_flag(cfg, sim, "harmonic", "add a `harmonic:` section (e.g. include "
+                                 "harmonic_bearings.yaml)")
     test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
             if sim.has("test_signal") else None)
     return Scenario(
@@ -212,7 +221,17 @@ def scenario_from_machine(machine: Machine) -> Scenario:
         initial_state=initial,
         grid_tol=sim.number("speed_grid_tol", DEFAULT_GRID_TOL, positive=True, maximum=0.1),
         use_balancer=use_balancer, feedforward_method=_feedforward_method(machine, sim),
-        test_force=test)
+        test_force=test, use_harmonic=use_harmonic)
+
+
+def _section_flag(cfg, sim, key: str, fix: str) -> bool:
+    """``simulation.<key>: true/false``, true only with a top-level ``<key>:`` section."""
+    value = sim.raw(key, False)
+    if not isinstance(value, bool):
+        raise sim.error(key, f"must be true or false (got {value!r})")
+    if value and not cfg.has(key):
+        raise sim.error(key, f"true, but the config has no `{key}:` section", fix=fix)
+    return value
 
 
 def _feedforward_method(machine: Machine, sim) -> str | None:

@@ -1,0 +1,325 @@
+"""The adaptive harmonic controller block: actuator forces locked to the shaft angle.
+
+At sample ``k`` (DESIGN.md section 3) the block takes the sensor signals ``e_k`` (M), the shaft
+angle ``theta_k`` and speed ``Omega_k``, and returns the forces (N actuators) to hold over
+``[t_k, t_k+1)``::
+
+    u_k = sum_h Re{A_h e^{j h theta_k}},     A_h = U_h + D_h     (D: identification dither)
+
+It demodulates the signals over an update window (one revolution, or ``update_every_samples``)::
+
+    E_h = 2 sum_k e_k e^{-j h theta_k} w_k / sum_k w_k,     w_k = Omega_k T
+
+(angle weighting: an exact Fourier coefficient over a revolution whatever the speed does), and at
+the window's last sample updates the phasors by the law of :mod:`rotor_avc.harmonic.laws` with
+the influence estimate ``G^_h(Omega)`` = speed schedule (:mod:`.influence`) + the online
+correction (:mod:`.identification`), before answering that sample. The dither's own response
+``G^ D`` is removed from ``E`` before the law acts.
+
+Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` is kept within
+``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by
+scaling the stored phasors themselves, so the adaptation never winds up beyond the limit.
+
+Safe fallback: the loop is taken to diverge when ``|E|`` exceeds ``divergence_factor`` times its
+value at switch-on, and the estimate to be poor when the identification's prediction residual
+stays above ``poor_residual`` for ``patience`` updates; then the block stops adapting and either
+holds its phasors (``freeze``) or fades them out over about ``fade_updates`` updates (``fade``),
+and reports it in :attr:`status` until :meth:`reset`.
+
+The block is off (zero force, no adaptation) before ``start_s``, below ``min_speed_hz`` and
+outside the influence schedule; switching on starts from zero phasors. Per sample it is plain
+Python floats; numpy runs once per update.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from .identification import InfluenceRls
+from .influence import InfluenceSchedule
+from .laws import check_law, update_matrices
+
+FALLBACKS = ("freeze", "fade")
+MODES = ("off", "adapting", "frozen", "fading")
+TWO_PI = 2 * math.pi
+
+
+@dataclass(frozen=True)
+class HarmonicSettings:
+    """The controller's settings (the config keys of :mod:`rotor_avc.harmonic.config`)."""
+
+    law: str = "newton"
+    gain: float = 0.5
+    effort_weight: float = 0.0
+    leakage: float = 0.0
+    sensor_weights: tuple[float, ...] | None = None
+    update_every_samples: int = 0                 # 0: once per revolution
+    force_limit_n: float = math.inf
+    rate_limit_n_per_s: float = math.inf
+    min_speed_hz: float = 2.0
+    start_s: float = 0.0
+    identify: bool = False
+    forgetting: float = 0.9
+    dither_n: float = 0.0
+    min_change_n: float = 1e-3
+    seed: int = 0
+    fallback: str = "freeze"
+    divergence_factor: float = 10.0
+    poor_residual: float = math.inf
+    patience: int = 3
+    fade_updates: int = 10
+
+    def check(self) -> None:
+        """ModelError naming the first setting out of range."""
+        check_law(self.law, self.gain, self.effort_weight, self.leakage)
+        if self.fallback not in FALLBACKS:
+            raise ModelError(f"unknown fallback {self.fallback!r}; use one of {FALLBACKS}")
+        for name in ("force_limit_n", "rate_limit_n_per_s", "divergence_factor", "min_change_n",
+                     "poor_residual"):
+            if not getattr(self, name) > 0:
+                raise ModelError(f"{name} must be > 0 (got {getattr(self, name)})")
+        if not (self.min_speed_hz > 0 and self.start_s >= 0 and self.dither_n >= 0):
+            raise ModelError("min_speed_hz must be > 0, start_s and dither_n >= 0")
+        if not 0 < self.forgetting <= 1:
+            raise ModelError(f"forgetting must lie in (0, 1] (got {self.forgetting})")
+        for name in ("update_every_samples", "patience", "fade_updates", "seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name in (
+                    "update_every_samples", "seed") else 1):
+                raise ModelError(f"{name} must be an integer >= "
+                                 f"{0 if name in ('update_every_samples', 'seed') else 1} "
+                                 f"(got {v!r})")
+
+
+class HarmonicController:
+    """``reset()`` / ``step(signals, angle, speed) -> forces`` (module docstring)."""
+
+    def __init__(self, schedule: InfluenceSchedule, sample_period_s: float,
+                 settings: HarmonicSettings = HarmonicSettings(), name: str = "harmonic"):
+        settings.check()
+        if not (math.isfinite(sample_period_s) and sample_period_s > 0):
+            raise ModelError(f"sample_period_s must be > 0 (got {sample_period_s})")
+        m, n = len(schedule.sensors), len(schedule.actuators)
+        if settings.sensor_weights is not None and len(settings.sensor_weights) != m:
+            raise ModelError(f"sensor_weights needs {m} entries, one per sensor")
+        self.schedule = schedule
+        self.settings = settings
+        self.name = name
+        self.sample_period_s = float(sample_period_s)
+        self.sensors = schedule.sensors
+        self.actuator_ids = schedule.actuators
+        self.harmonics = schedule.harmonics
+        self._hm = [(h, hi * m) for hi, h in enumerate(self.harmonics)]
+        self._shape = (len(self.harmonics), m, n)
+        self._min_speed = TWO_PI * settings.min_speed_hz
+        self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
+        self.reset()
+
+    # -- state -------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Off, zero phasors, a fresh estimate and dither sequence, fallback cleared."""
+        H, m, n = self._shape
+        s = self.settings
+        self.k = 0
+        self.mode = "off"
+        self.reason = "not started"
+        self.U = np.zeros((H, n), complex)
+        self.D = np.zeros((H, n), complex)
+        self.E = np.zeros((H, m), complex)
+        self.estimate = np.zeros((H, m, n), complex)
+        self.rls = [InfluenceRls(m, n, s.forgetting, s.min_change_n) for _ in range(H)]
+        self._rng = np.random.default_rng(s.seed)
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._ref = None
+        self._poor = 0
+        self.n_updates = 0
+        self.saturated = False
+        self._clear_window()
+        self._set_outputs()
+
+    def _clear_window(self) -> None:
+        self._acc = [0.0] * (2 * self._shape[0] * self._shape[1])
+        self._span = 0.0
+        self._count = 0
+
+    def _set_outputs(self) -> None:
+        A = self.U + self.D
+        self._out = [(h, A[hi].real.tolist(), A[hi].imag.tolist())
+                     for hi, h in enumerate(self.harmonics)]
+        self._zero = [0.0] * self._shape[2]
+
+    @property
+    def state(self) -> dict:
+        """Everything the next steps depend on (arrays copied)."""
+        return {"k": self.k, "mode": self.mode, "reason": self.reason, "U": self.U.copy(),
+                "D": self.D.copy(), "E": self.E.copy(), "acc": list(self._acc),
+                "span": self._span, "count": self._count, "ref": self._ref, "poor": self._poor,
+                "n_updates": self.n_updates,
+                "prev": None if self._prev is None else tuple(a.copy() for a in self._prev),
+                "rls": [(r.correction.copy(), r.covariance.copy(), r.residual, r.n_updates)
+                        for r in self.rls],
+                "rng": self._rng.bit_generator.state}
+
+    def set_state(self, state: dict) -> None:
+        """Restore a :attr:`state`."""
+        H, m, n = self._shape
+        U, D = np.asarray(state["U"], complex), np.asarray(state["D"], complex)
+        if U.shape != (H, n) or D.shape != (H, n) or len(state["acc"]) != 2 * H * m \
+                or state["mode"] not in MODES:
+            raise ModelError(f"harmonic state does not fit {H} harmonics x {m} sensors x "
+                             f"{n} actuators")
+        self.k, self.mode, self.reason = int(state["k"]), state["mode"], state["reason"]
+        self.U, self.D, self.E = U.copy(), D.copy(), np.asarray(state["E"], complex).copy()
+        self._acc, self._span, self._count = [float(v) for v in state["acc"]], \
+            float(state["span"]), int(state["count"])
+        self._ref, self._poor, self.n_updates = state["ref"], state["poor"], state["n_updates"]
+        self._prev = None if state["prev"] is None else tuple(a.copy() for a in state["prev"])
+        for r, (corr, cov, res, nu) in zip(self.rls, state["rls"]):
+            r.correction, r.covariance, r.residual, r.n_updates = corr.copy(), cov.copy(), res, nu
+        self._rng.bit_generator.state = state["rng"]
+        self._set_outputs()
+
+    @property
+    def status(self) -> dict:
+        """Mode, reason, error and force phasor magnitudes, estimate residuals (for reports,
+        the status topic and ``/diagnostics``)."""
+        return {"mode": self.mode, "reason": self.reason, "updates": self.n_updates,
+                "error_abs": np.abs(self.E).tolist(), "force_abs_n": np.abs(self.U).tolist(),
+                "saturated": self.saturated,
+                "residual": [r.residual for r in self.rls]}
+
+    # -- stepping ----------------------------------------------------------------------------
+    def step(self, signals, angle: float, speed: float) -> list[float]:
+        """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
+        k = self.k
+        self.k = k + 1
+        if self.mode == "off" or speed < self._min_speed:
+            if not self._may_run(k, speed):
+                return self._zero
+        w = speed * self.sample_period_s
+        acc = self._acc
+        for h, base in self._hm:
+            c = math.cos(h * angle) * w
+            s = math.sin(h * angle) * w
+            i = 2 * base
+            for v in signals:
+                acc[i] += v * c
+                acc[i + 1] -= v * s
+                i += 2
+        self._span += w
+        self._count += 1
+        every = self.settings.update_every_samples
+        if (self._count >= every) if every else (self._span >= TWO_PI):
+            self._update(signals)
+        if len(self._out) == 1:
+            h, re, im = self._out[0]
+            c = math.cos(h * angle)
+            s = math.sin(h * angle)
+            return [a * c - b * s for a, b in zip(re, im)]
+        forces = list(self._zero)
+        for h, re, im in self._out:
+            c = math.cos(h * angle)
+            s = math.sin(h * angle)
+            for j in range(len(forces)):
+                forces[j] += re[j] * c - im[j] * s
+        return forces
+
+    def _may_run(self, k: int, speed: float) -> bool:
+        """Switch on (from zero) or off at this sample; True while on."""
+        on = (k >= self._start_k and speed >= self._min_speed
+              and self.schedule.covers(speed))
+        if on and self.mode == "off":
+            self.mode, self.reason = "adapting", "switched on"
+            self._clear_window()
+        elif not on and self.mode != "off":
+            self.U[:] = 0.0
+            self.D[:] = 0.0
+            self._prev = None
+            self._ref = None
+            self.mode, self.reason = "off", "below min_speed_hz or outside the schedule"
+            self._set_outputs()
+        return on
+
+    def _update(self, signals) -> None:
+        """End of a window: phasors, identification, fallback checks, law, limits."""
+        H, m, n = self._shape
+        acc = np.array(self._acc)
+        E = (2.0 / self._span) * (acc[0::2] + 1j * acc[1::2]).reshape(H, m)
+        if not np.all(np.isfinite(E)):
+            bad = [name for name, v in zip(self.sensors, signals) if not math.isfinite(v)]
+            raise ModelError(f"{self.name}: non-finite sensor signal in the last window "
+                             f"({', '.join(bad) or 'earlier sample'}; sensor fault?)")
+        speed = self._span / (self._count * self.sample_period_s)
+        self._clear_window()
+        self.E = E
+        self.n_updates += 1
+        prior = self.schedule.at(speed)
+        A = self.U + self.D
+        s = self.settings
+        if s.identify and self._prev is not None:
+            A_prev, E_prev = self._prev
+            learned = [r.update(A[hi] - A_prev[hi], E[hi] - E_prev[hi], prior[hi])
+                       for hi, r in enumerate(self.rls)]
+            if any(learned):
+                worst = max(r.residual for r, ok in zip(self.rls, learned) if ok)
+                self._poor = self._poor + 1 if worst > s.poor_residual else 0
+        self._prev = (A.copy(), E.copy())
+        self.estimate = prior + np.array([r.correction for r in self.rls])
+        norm = float(np.linalg.norm(E))
+        if self._ref is None:
+            self._ref = norm
+        if self.mode == "adapting":
+            if not norm <= s.divergence_factor * self._ref:
+                self._fall_back(f"diverging: |E| grew {norm / max(self._ref, 1e-300):.3g} "
+                                "times its value at switch-on")
+            elif self._poor >= s.patience:
+                self._fall_back(f"poor estimate: prediction residual above {s.poor_residual:g} "
+                                f"for {self._poor} updates")
+        if self.mode == "adapting":
+            for hi in range(H):
+                A_U, B = update_matrices(self.estimate[hi], s.law, s.gain,
+                                         effort_weight=s.effort_weight, leakage=s.leakage,
+                                         sensor_weights=s.sensor_weights)
+                e = E[hi] - self.estimate[hi] @ self.D[hi]
+                self.U[hi] = A_U @ self.U[hi] - B @ e
+            if s.dither_n > 0:
+                self.D = s.dither_n * np.exp(2j * np.pi * self._rng.random((H, n)))
+        elif self.mode == "fading":
+            self.U *= 1.0 - 1.0 / s.fade_updates
+            self.D[:] = 0.0
+        self._limit(speed)
+        self._set_outputs()
+
+    def _fall_back(self, reason: str) -> None:
+        self.mode = "fading" if self.settings.fallback == "fade" else "frozen"
+        self.reason = reason
+        self.D[:] = 0.0
+
+    def _limit(self, speed: float) -> None:
+        """Scale each actuator's phasors into the force and slope limits (anti-windup)."""
+        s = self.settings
+        A = np.abs(self.U + self.D)
+        h = np.array(self.harmonics, dtype=float)[:, None]
+        peak = A.sum(axis=0)
+        slope = (h * speed * A).sum(axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.minimum(1.0, np.minimum(np.where(peak > 0, s.force_limit_n / peak, 1.0),
+                                               np.where(slope > 0, s.rate_limit_n_per_s / slope,
+                                                        1.0)))
+        self.saturated = bool(np.any(scale < 1.0))
+        if self.saturated:
+            self.U *= scale
+            self.D *= scale
+
+    def describe(self) -> str:
+        s = self.settings
+        every = (f"every {s.update_every_samples} samples" if s.update_every_samples
+                 else "once per revolution")
+        extra = ", online identification" if s.identify else ""
+        return (f"{self.name}: harmonics {list(self.harmonics)}, law {s.law} (gain {s.gain:g}), "
+                f"{len(self.actuator_ids)} actuators x {len(self.sensors)} sensors, "
+                f"update {every}{extra}")
+
