@@ -20,8 +20,9 @@ Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` 
 ``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by
 scaling the stored phasors themselves, so the adaptation never winds up beyond the limit.
 
-Safe fallback: the loop is taken to diverge when ``|E|`` exceeds ``divergence_factor`` times its
-value at switch-on, and the estimate to be poor when the identification's prediction residual
+Safe fallback: the loop is taken to diverge when ``|E| / Omega^2`` exceeds ``divergence_factor``
+times its value at switch-on (an unbalance response grows with ``Omega^2``; the default 100
+leaves room for a resonance's amplification during a run-up), and the estimate to be poor when the identification's prediction residual
 stays above ``poor_residual`` for ``patience`` updates; then the block stops adapting and either
 holds its phasors (``freeze``) or fades them out over about ``fade_updates`` updates (``fade``),
 and reports it in :attr:`status` until :meth:`reset`.
@@ -67,7 +68,7 @@ class HarmonicSettings:
     min_change_n: float = 1e-3
     seed: int = 0
     fallback: str = "freeze"
-    divergence_factor: float = 10.0
+    divergence_factor: float = 100.0
     poor_residual: float = math.inf
     patience: int = 3
     fade_updates: int = 10
@@ -270,11 +271,12 @@ class HarmonicController:
         self.estimate = prior + np.array([r.correction for r in self.rls])
         norm = float(np.linalg.norm(E))
         if self._ref is None:
-            self._ref = norm
+            self._ref = norm / speed**2
         if self.mode == "adapting":
-            if not norm <= s.divergence_factor * self._ref:
-                self._fall_back(f"diverging: |E| grew {norm / max(self._ref, 1e-300):.3g} "
-                                "times its value at switch-on")
+            growth = norm / max(self._ref * speed**2, 1e-300)
+            if not growth <= s.divergence_factor:
+                self._fall_back(f"diverging: |E| / Omega^2 grew {growth:.3g} times its value "
+                                "at switch-on")
             elif self._poor >= s.patience:
                 self._fall_back(f"poor estimate: prediction residual above {s.poor_residual:g} "
                                 f"for {self._poor} updates")

@@ -27,7 +27,7 @@
         seed: 0
       fallback:
         mode: freeze                       # freeze | fade
-        divergence_factor: 10.0            # |E| / |E at switch-on| that counts as diverging
+        divergence_factor: 100.0           # growth of |E| / Omega^2 since switch-on = diverging
         poor_residual: .inf                # identification residual that counts as poor
         patience: 3                        # updates a poor residual may last
         fade_updates: 10
@@ -101,7 +101,7 @@ def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
     fb = sec.section("fallback", {})
     fb.check_keys(FALLBACK_KEYS)
     kw.update(fallback=fb.choice("mode", FALLBACKS, default="freeze"),
-              divergence_factor=fb.number("divergence_factor", 10.0, minimum=1.0),
+              divergence_factor=fb.number("divergence_factor", 100.0, minimum=1.0),
               patience=fb.integer("patience", 3, minimum=1),
               fade_updates=fb.integer("fade_updates", 10, minimum=1))
     if fb.has("poor_residual"):
