@@ -11,20 +11,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import copy  # noqa: E402
-import time  # noqa: E402
 
+from bench_sim import best_of  # noqa: E402
 from rotor_avc.config import load_config  # noqa: E402
 from rotor_avc.sim.loop import run_loop  # noqa: E402
 from rotor_avc.sim.scenario import scenario_from_config  # noqa: E402
-
-
-def best_of(fn, repeats=3):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def main():

@@ -36,7 +36,7 @@ from ..control.spec import FEEDBACK_ORDER
 from ..errors import ModelError
 from ..harmonic.laws import convergence_radius, update_matrices
 from ..models.discretize import discretize_plant
-from .sampled_loop import SampledLoop, _df2t_realisation
+from .sampled_loop import SampledLoop, SampledPoles, _df2t_realisation
 from .transfer import quantity
 
 HELD_TOL = 1e-9
@@ -126,30 +126,6 @@ def _real(M: np.ndarray) -> np.ndarray:
     return np.block([[M.real, -M.imag], [M.imag, M.real]])
 
 
-@dataclass(frozen=True)
-class HarmonicPoles:
-    """Poles per revolution of the adaptive loop at one speed (module docstring)."""
-
-    speed_rad_s: float
-    samples_per_revolution: int
-    z: np.ndarray            # counted eigenvalues of the one-revolution map
-    held: np.ndarray         # split-off eigenvalues at 1 (drift, phasors never moved)
-
-    @property
-    def max_abs_z(self) -> float:
-        return float(np.max(np.abs(self.z))) if self.z.size else 0.0
-
-    @property
-    def stable(self) -> bool:
-        return self.max_abs_z < 1.0
-
-    @property
-    def s(self) -> np.ndarray:
-        """Equivalent continuous poles ``ln(z) / T_rev`` (1/s)."""
-        with np.errstate(divide="ignore"):
-            return np.log(self.z.astype(complex)) * self.speed_rad_s / (2 * np.pi)
-
-
 def samples_per_revolution(speed_rad_s: float, sample_period_s: float) -> int:
     """``P`` if a revolution spans an integer number of samples (to 1e-9), else ModelError."""
     P = 2 * np.pi / (speed_rad_s * sample_period_s)
@@ -164,9 +140,10 @@ def harmonic_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, actuators,
                    harmonics, estimate: np.ndarray, law: str, gain: float, *,
                    effort_weight: float = 0.0, leakage: float = 0.0, sensor_weights=None,
                    update_every_samples: int = 0, lwi: LoopWithInput | None = None
-                   ) -> HarmonicPoles:
-    """Poles of the one-revolution map of the adaptive loop (module docstring); ``estimate``
-    (H, M, N) the influence estimate the block uses at this speed."""
+                   ) -> SampledPoles:
+    """Poles of the one-revolution map of the adaptive loop (module docstring) as
+    :class:`SampledPoles` with the revolution as sample period (``drift``: the split-off
+    eigenvalues at 1); ``estimate`` (H, M, N) the influence estimate the block uses."""
     T = loop.sample_period_s
     P = samples_per_revolution(speed_rad_s, T)
     every = update_every_samples or P
@@ -218,7 +195,7 @@ def harmonic_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, actuators,
     idx = idx[np.abs(z[idx] - 1.0) <= HELD_TOL ** 0.5]
     keep = np.ones(z.size, bool)
     keep[idx] = False
-    return HarmonicPoles(float(speed_rad_s), P, z[keep], z[idx])
+    return SampledPoles(float(speed_rad_s), float(w_F), P * T, z[keep], z[idx])
 
 
 @dataclass(frozen=True)

@@ -63,9 +63,10 @@ class HarmonicSettings:
     min_speed_hz: float = 2.0
     start_s: float = 0.0
     identify: bool = False
-    forgetting: float = 0.9
+    forgetting: float = 0.98
     dither_n: float = 0.0
     min_change_n: float = 1e-3
+    min_rel_change: float = 0.1
     seed: int = 0
     fallback: str = "freeze"
     divergence_factor: float = 100.0
@@ -84,6 +85,8 @@ class HarmonicSettings:
                 raise ModelError(f"{name} must be > 0 (got {getattr(self, name)})")
         if not (self.min_speed_hz > 0 and self.start_s >= 0 and self.dither_n >= 0):
             raise ModelError("min_speed_hz must be > 0, start_s and dither_n >= 0")
+        if not 0 <= self.min_rel_change < 1:
+            raise ModelError(f"min_rel_change must lie in [0, 1) (got {self.min_rel_change})")
         if not 0 < self.forgetting <= 1:
             raise ModelError(f"forgetting must lie in (0, 1] (got {self.forgetting})")
         for name in ("update_every_samples", "patience", "fade_updates", "seed"):
@@ -131,7 +134,8 @@ class HarmonicController:
         self.D = np.zeros((H, n), complex)
         self.E = np.zeros((H, m), complex)
         self.estimate = np.zeros((H, m, n), complex)
-        self.rls = [InfluenceRls(m, n, s.forgetting, s.min_change_n) for _ in range(H)]
+        self.rls = [InfluenceRls(m, n, s.forgetting, s.min_change_n, s.min_rel_change)
+                    for _ in range(H)]
         self._rng = np.random.default_rng(s.seed)
         self._prev: tuple[np.ndarray, np.ndarray] | None = None
         self._ref = None
@@ -262,7 +266,8 @@ class HarmonicController:
         s = self.settings
         if s.identify and self._prev is not None:
             A_prev, E_prev = self._prev
-            learned = [r.update(A[hi] - A_prev[hi], E[hi] - E_prev[hi], prior[hi])
+            learned = [r.update(A[hi] - A_prev[hi], E[hi] - E_prev[hi], prior[hi],
+                                float(np.linalg.norm(A_prev[hi])))
                        for hi, r in enumerate(self.rls)]
             if any(learned):
                 worst = max(r.residual for r, ok in zip(self.rls, learned) if ok)

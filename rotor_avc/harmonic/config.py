@@ -21,9 +21,10 @@
         phase_error_deg: 0.0               # deliberate estimate error (robustness studies)
         magnitude_factor: 1.0
       identification:                      # present: online RLS of the influence matrix
-        forgetting: 0.9
+        forgetting: 0.98
         dither_n: 0.0                      # dither phasor magnitude (N), random phase
-        min_change_n: 1.0e-3               # smaller changes are not learnt from
+        min_change_n: 1.0e-3               # smaller changes (N) are not learnt from,
+        min_rel_change: 0.1                # nor changes below this fraction of the phasors
         seed: 0
       fallback:
         mode: freeze                       # freeze | fade
@@ -48,7 +49,7 @@ HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "effort_wei
                  "sensor_weights", "update_every_samples", "force_limit_n", "rate_limit_n_per_s",
                  "min_speed_hz", "start_s", "influence", "identification", "fallback")
 INFLUENCE_KEYS = ("rel_step", "phase_error_deg", "magnitude_factor")
-IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "seed")
+IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "min_rel_change", "seed")
 FALLBACK_KEYS = ("mode", "divergence_factor", "poor_residual", "patience", "fade_updates")
 DEFAULT_REL_STEP = 0.005
 
@@ -94,9 +95,11 @@ def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
         ident = sec.section("identification")
         ident.check_keys(IDENTIFICATION_KEYS)
         kw.update(identify=True,
-                  forgetting=ident.number("forgetting", 0.9, positive=True, maximum=1.0),
+                  forgetting=ident.number("forgetting", 0.98, positive=True, maximum=1.0),
                   dither_n=ident.number("dither_n", 0.0, nonnegative=True, unit="N"),
                   min_change_n=ident.number("min_change_n", 1e-3, positive=True, unit="N"),
+                  min_rel_change=ident.number("min_rel_change", 0.1, nonnegative=True,
+                                              maximum=0.99),
                   seed=ident.integer("seed", 0, minimum=0))
     fb = sec.section("fallback", {})
     fb.check_keys(FALLBACK_KEYS)
