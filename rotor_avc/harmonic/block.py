@@ -16,6 +16,16 @@ the influence estimate ``G^_h(Omega)`` = speed schedule (:mod:`.influence`) + th
 correction (:mod:`.identification`), before answering that sample. The dither's own response
 ``G^ D`` is removed from ``E`` before the law acts.
 
+Adapting in the excitations (``adapt_in: excitations``, 1x): the law acts on an estimate ``C``
+of the plant's synchronous excitation amplitudes (the unbalance) instead of on ``U``: with the
+disturbance model ``H(Omega)`` (sensor response per unit excitation) the phasors are
+``U = -pinv(G^) H C``, leaving ``E = K (C_true - C)`` with ``K = G^ pinv(G^) H``, and the law of
+:mod:`.laws` runs on ``K``. At a constant speed this is the same loop (for ``K`` invertible,
+``U+ = U - mu pinv(G^) E``, Newton), but the estimate is speed-invariant: during a run-up the
+phasors follow the scheduled ``G`` and ``H`` through every resonance (recomputed every
+``refresh_samples`` samples), instead of having to be re-learnt -- the seed-004 balancer plane
+(an RLS estimate of the unbalance) and the seed-002 quantified force, in harmonic form.
+
 Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` is kept within
 ``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by
 scaling the stored phasors themselves, so the adaptation never winds up beyond the limit.
@@ -44,6 +54,7 @@ from .influence import InfluenceSchedule
 from .laws import check_law, update_matrices
 
 FALLBACKS = ("freeze", "fade")
+ADAPT_IN = ("forces", "excitations")
 MODES = ("off", "adapting", "frozen", "fading")
 TWO_PI = 2 * math.pi
 
@@ -54,6 +65,11 @@ class HarmonicSettings:
 
     law: str = "newton"
     gain: float = 0.5
+    adapt_in: str = "forces"
+    refresh_samples: int = 0
+    #: optional gain schedule: the gain of the nearest (log-speed) node replaces ``gain``
+    gain_speeds_rad_s: tuple[float, ...] = ()
+    gain_values: tuple[float, ...] = ()
     effort_weight: float = 0.0
     leakage: float = 0.0
     sensor_weights: tuple[float, ...] | None = None
@@ -77,6 +93,11 @@ class HarmonicSettings:
     def check(self) -> None:
         """ModelError naming the first setting out of range."""
         check_law(self.law, self.gain, self.effort_weight, self.leakage)
+        if len(self.gain_speeds_rad_s) != len(self.gain_values) or any(
+                not (v > 0 and math.isfinite(v)) for v in self.gain_speeds_rad_s + self.gain_values):
+            raise ModelError("the gain schedule needs as many speeds as gains, all > 0")
+        if self.adapt_in not in ADAPT_IN:
+            raise ModelError(f"unknown adapt_in {self.adapt_in!r}; use one of {ADAPT_IN}")
         if self.fallback not in FALLBACKS:
             raise ModelError(f"unknown fallback {self.fallback!r}; use one of {FALLBACKS}")
         for name in ("force_limit_n", "rate_limit_n_per_s", "divergence_factor", "min_change_n",
@@ -89,13 +110,12 @@ class HarmonicSettings:
             raise ModelError(f"min_rel_change must lie in [0, 1) (got {self.min_rel_change})")
         if not 0 < self.forgetting <= 1:
             raise ModelError(f"forgetting must lie in (0, 1] (got {self.forgetting})")
-        for name in ("update_every_samples", "patience", "fade_updates", "seed"):
+        for name in ("update_every_samples", "refresh_samples", "patience", "fade_updates",
+                     "seed"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (0 if name in (
-                    "update_every_samples", "seed") else 1):
-                raise ModelError(f"{name} must be an integer >= "
-                                 f"{0 if name in ('update_every_samples', 'seed') else 1} "
-                                 f"(got {v!r})")
+            low = 1 if name in ("patience", "fade_updates") else 0
+            if isinstance(v, bool) or not isinstance(v, int) or v < low:
+                raise ModelError(f"{name} must be an integer >= {low} (got {v!r})")
 
 
 class HarmonicController:
@@ -109,6 +129,10 @@ class HarmonicController:
         m, n = len(schedule.sensors), len(schedule.actuators)
         if settings.sensor_weights is not None and len(settings.sensor_weights) != m:
             raise ModelError(f"sensor_weights needs {m} entries, one per sensor")
+        if settings.adapt_in == "excitations" and (schedule.disturbance is None
+                                                   or schedule.harmonics != (1,)):
+            raise ModelError("adapt_in excitations needs the 1x harmonic alone and a schedule "
+                             "with the disturbance model")
         self.schedule = schedule
         self.settings = settings
         self.name = name
@@ -120,6 +144,7 @@ class HarmonicController:
         self._shape = (len(self.harmonics), m, n)
         self._min_speed = TWO_PI * settings.min_speed_hz
         self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
+        self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
         self.reset()
 
     # -- state -------------------------------------------------------------------------------
@@ -133,6 +158,8 @@ class HarmonicController:
         self.U = np.zeros((H, n), complex)
         self.D = np.zeros((H, n), complex)
         self.E = np.zeros((H, m), complex)
+        self.C = np.zeros(len(self.schedule.excitations), complex)
+        self._since_refresh = 0
         self.estimate = np.zeros((H, m, n), complex)
         self.rls = [InfluenceRls(m, n, s.forgetting, s.min_change_n, s.min_rel_change)
                     for _ in range(H)]
@@ -160,7 +187,7 @@ class HarmonicController:
     def state(self) -> dict:
         """Everything the next steps depend on (arrays copied)."""
         return {"k": self.k, "mode": self.mode, "reason": self.reason, "U": self.U.copy(),
-                "D": self.D.copy(), "E": self.E.copy(), "acc": list(self._acc),
+                "D": self.D.copy(), "E": self.E.copy(), "C": self.C.copy(), "acc": list(self._acc),
                 "span": self._span, "count": self._count, "ref": self._ref, "poor": self._poor,
                 "n_updates": self.n_updates,
                 "prev": None if self._prev is None else tuple(a.copy() for a in self._prev),
@@ -178,6 +205,7 @@ class HarmonicController:
                              f"{n} actuators")
         self.k, self.mode, self.reason = int(state["k"]), state["mode"], state["reason"]
         self.U, self.D, self.E = U.copy(), D.copy(), np.asarray(state["E"], complex).copy()
+        self.C = np.asarray(state["C"], complex).copy()
         self._acc, self._span, self._count = [float(v) for v in state["acc"]], \
             float(state["span"]), int(state["count"])
         self._ref, self._poor, self.n_updates = state["ref"], state["poor"], state["n_updates"]
@@ -219,6 +247,10 @@ class HarmonicController:
         every = self.settings.update_every_samples
         if (self._count >= every) if every else (self._span >= TWO_PI):
             self._update(signals)
+        elif self._refresh:
+            self._since_refresh += 1
+            if self._since_refresh >= self._refresh and self.mode == "adapting":
+                self._synthesise(speed)
         if len(self._out) == 1:
             h, re, im = self._out[0]
             c = math.cos(h * angle)
@@ -242,6 +274,7 @@ class HarmonicController:
         elif not on and self.mode != "off":
             self.U[:] = 0.0
             self.D[:] = 0.0
+            self.C[:] = 0.0
             self._prev = None
             self._ref = None
             self.mode, self.reason = "off", "below min_speed_hz or outside the schedule"
@@ -285,20 +318,58 @@ class HarmonicController:
             elif self._poor >= s.patience:
                 self._fall_back(f"poor estimate: prediction residual above {s.poor_residual:g} "
                                 f"for {self._poor} updates")
-        if self.mode == "adapting":
+        if self.mode == "adapting" and s.adapt_in == "excitations":
+            self._update_excitations(E[0] - self.estimate[0] @ self.D[0], speed)
+        elif self.mode == "adapting":
             for hi in range(H):
-                A_U, B = update_matrices(self.estimate[hi], s.law, s.gain,
+                A_U, B = update_matrices(self.estimate[hi], s.law, self.gain_at(speed),
                                          effort_weight=s.effort_weight, leakage=s.leakage,
                                          sensor_weights=s.sensor_weights)
                 e = E[hi] - self.estimate[hi] @ self.D[hi]
                 self.U[hi] = A_U @ self.U[hi] - B @ e
+        if self.mode == "adapting":
             if s.dither_n > 0:
                 self.D = s.dither_n * np.exp(2j * np.pi * self._rng.random((H, n)))
         elif self.mode == "fading":
             self.U *= 1.0 - 1.0 / s.fade_updates
+            self.C *= 1.0 - 1.0 / s.fade_updates
             self.D[:] = 0.0
         self._limit(speed)
         self._set_outputs()
+
+    def gain_at(self, speed: float) -> float:
+        """The adaptation gain at this speed (the schedule's nearest node, else ``gain``)."""
+        s = self.settings
+        if not s.gain_values:
+            return s.gain
+        i = int(np.argmin(np.abs(np.log(np.asarray(s.gain_speeds_rad_s) / speed))))
+        return s.gain_values[i]
+
+    def _source_map(self, speed: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(F, K)``: the phasors ``U = -F C`` that cancel the estimated excitations ``C`` at this
+        speed, and the error they leave per unit estimate error, ``E = K (C_true - C)``."""
+        G = self.schedule.at(speed)[0] + self.rls[0].correction
+        Hd = self.schedule.disturbance_at(speed)
+        F = np.linalg.pinv(G) @ Hd
+        return F, G @ F
+
+    def _update_excitations(self, e: np.ndarray, speed: float) -> None:
+        """Adapt the excitation estimate (the law acting on ``K``), then the phasors from it."""
+        s = self.settings
+        _, K = self._source_map(speed)
+        A_C, B = update_matrices(K, s.law, self.gain_at(speed), effort_weight=s.effort_weight,
+                                 leakage=s.leakage, sensor_weights=s.sensor_weights)
+        self.C = A_C @ self.C + B @ e
+        self._synthesise(speed, limit=False)
+
+    def _synthesise(self, speed: float, limit: bool = True) -> None:
+        """Phasors from the excitation estimate at the current speed (speed scheduling within
+        a window); with ``limit``, into the limits and onto the outputs."""
+        self._since_refresh = 0
+        self.U[0] = -self._source_map(speed)[0] @ self.C
+        if limit:
+            self._limit(speed)
+            self._set_outputs()
 
     def _fall_back(self, reason: str) -> None:
         self.mode = "fading" if self.settings.fallback == "fade" else "frozen"
@@ -320,13 +391,15 @@ class HarmonicController:
         if self.saturated:
             self.U *= scale
             self.D *= scale
+            self.C *= scale.min()              # the estimate behind the phasors, likewise
 
     def describe(self) -> str:
         s = self.settings
         every = (f"every {s.update_every_samples} samples" if s.update_every_samples
                  else "once per revolution")
         extra = ", online identification" if s.identify else ""
-        return (f"{self.name}: harmonics {list(self.harmonics)}, law {s.law} (gain {s.gain:g}), "
+        return (f"{self.name}: harmonics {list(self.harmonics)}, law {s.law} (gain "
+                f"{'scheduled over speed' if s.gain_values else format(s.gain, 'g')}), "
                 f"{len(self.actuator_ids)} actuators x {len(self.sensors)} sensors, "
                 f"update {every}{extra}")
 

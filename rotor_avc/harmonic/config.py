@@ -7,7 +7,10 @@
       sensors: [bearing_D_vz, bearing_N_vz]   # measured quantities (plant outputs, foot signals)
       harmonics: [1]                       # orders of the shaft speed (1x, 2x, ...)
       law: newton                          # steepest_descent | newton | wls
-      gain: 0.5                            # adaptation gain per update (dimensionless)
+      gain: 0.5                            # adaptation gain per update (dimensionless), or
+                                           # auto: per speed from the loop analysis
+      adapt_in: forces                     # forces | excitations (1x: adapt the unbalance
+      refresh_samples: 0                   #   estimate; phasors re-scheduled every n samples)
       effort_weight: 0.0                   # wls: effort penalty relative to |G|^2
       leakage: 0.0                         # per update, in [0, 1)
       sensor_weights: [1.0, 1.0]           # optional, one per sensor
@@ -33,25 +36,34 @@
         patience: 3                        # updates a poor residual may last
         fade_updates: 10
 
+``gain: auto`` picks, at speeds 8 % apart, the largest of :data:`AUTO_GAINS` whose exact
+one-revolution loop (:func:`rotor_avc.analysis.harmonic_lti.gain_schedule`, on the unperturbed
+model) contracts about as fast as the best; the block uses the nearest speed's gain.
+
 The influence matrix is the model's sampled-loop transfer with the machine's feedback
 controllers closed (:mod:`rotor_avc.harmonic.influence`), on the run's damping rule.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from ..errors import ModelError
-from .block import FALLBACKS, HarmonicController, HarmonicSettings
+from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings
 from .influence import model_schedule, schedule_speeds
 from .laws import LAWS
 
-HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "effort_weight", "leakage",
+HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "adapt_in", "refresh_samples",
+                 "effort_weight", "leakage",
                  "sensor_weights", "update_every_samples", "force_limit_n", "rate_limit_n_per_s",
                  "min_speed_hz", "start_s", "influence", "identification", "fallback")
 INFLUENCE_KEYS = ("rel_step", "phase_error_deg", "magnitude_factor")
 IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "min_rel_change", "seed")
 FALLBACK_KEYS = ("mode", "divergence_factor", "poor_residual", "patience", "fade_updates")
 DEFAULT_REL_STEP = 0.005
+#: ``gain: auto``: candidate gains and the relative speed step of the analysed speeds
+AUTO_GAINS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5)
+AUTO_GAIN_STEP = 0.08
 
 
 def _names(sec, key, known, default=None):
@@ -70,7 +82,9 @@ def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
     """:class:`HarmonicSettings` from the section (ConfigError naming the field)."""
     num = lambda key, default, **kw: sec.number(key, default, **kw)  # noqa: E731
     kw = {"law": sec.choice("law", LAWS, default="newton"),
-          "gain": num("gain", 0.5, positive=True),
+          "gain": 0.5 if sec.raw("gain", None) == "auto" else num("gain", 0.5, positive=True),
+          "adapt_in": sec.choice("adapt_in", ADAPT_IN, default="forces"),
+          "refresh_samples": sec.integer("refresh_samples", 0, minimum=0),
           "effort_weight": num("effort_weight", 0.0, nonnegative=True),
           "leakage": num("leakage", 0.0, nonnegative=True, maximum=0.999),
           "update_every_samples": sec.integer("update_every_samples", 0, minimum=0),
@@ -141,11 +155,23 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
                         f"highest speed {max_speed_rad_s / (2 * math.pi):g} Hz",
                         fix="lower min_speed_hz")
     loop = machine_sampled_loop(machine, sample_period_s)
+    excitations = settings.adapt_in == "excitations"
+    if excitations and sorted(harmonics) != [1]:
+        raise sec.error("adapt_in", "excitations act at 1x only", fix="use harmonics: [1]")
     try:
         schedule = model_schedule(loop, sensors, actuators, sorted(harmonics),
-                                  schedule_speeds(start, max_speed_rad_s, rel_step), w_F)
+                                  schedule_speeds(start, max_speed_rad_s, rel_step), w_F,
+                                  disturbance=excitations)
     except ModelError as exc:
-        raise sec.error("harmonics", str(exc)) from None
+        raise sec.error("sensors" if "unbalance response" in str(exc) else "harmonics",
+                        str(exc)) from None
+    if sec.raw("gain", None) == "auto":
+        from ..analysis.harmonic_lti import gain_schedule
+        n = max(int(math.ceil(math.log(max_speed_rad_s / start) / math.log1p(AUTO_GAIN_STEP))), 1)
+        speeds, gains = gain_schedule(loop, schedule, settings,
+                                      [start * (max_speed_rad_s / start) ** (i / n)
+                                       for i in range(n + 1)], AUTO_GAINS, w_F)
+        settings = replace(settings, gain_speeds_rad_s=speeds, gain_values=gains)
     schedule = schedule.perturbed(inf.number("phase_error_deg", 0.0),
                                   inf.number("magnitude_factor", 1.0, positive=True))
     return HarmonicController(schedule, sample_period_s, settings)

@@ -26,6 +26,10 @@ class InfluenceSchedule:
     matrices: np.ndarray
     sensors: tuple[str, ...]
     actuators: tuple[str, ...]
+    #: optional 1x response of the sensors per unit amplitude of the plant's synchronous
+    #: excitations (unbalance), ``(S, M, n_excitations)``: the disturbance model
+    disturbance: np.ndarray | None = None
+    excitations: tuple[str, ...] = ()
 
     def __post_init__(self):
         sp = self.speeds_rad_s
@@ -36,20 +40,34 @@ class InfluenceSchedule:
         if self.matrices.shape != shape or not np.all(np.isfinite(self.matrices)):
             raise ModelError(f"influence matrices must be finite with shape {shape} "
                              f"(got {self.matrices.shape})")
+        if self.disturbance is not None and (
+                self.disturbance.shape != (sp.size, len(self.sensors), len(self.excitations))
+                or not np.all(np.isfinite(self.disturbance))):
+            raise ModelError("the disturbance model must be finite with shape (speeds, sensors, "
+                             "excitations)")
 
     def covers(self, speed_rad_s: float) -> bool:
         return bool(self.speeds_rad_s[0] <= speed_rad_s <= self.speeds_rad_s[-1])
 
     def at(self, speed_rad_s: float) -> np.ndarray:
         """``(H, M, N)`` interpolated at one speed (clamped to the table's ends)."""
+        return self._interpolate(self.matrices, speed_rad_s)
+
+    def disturbance_at(self, speed_rad_s: float) -> np.ndarray:
+        """``(M, n_excitations)`` of the disturbance model at one speed."""
+        if self.disturbance is None:
+            raise ModelError("this influence schedule has no disturbance model")
+        return self._interpolate(self.disturbance, speed_rad_s)
+
+    def _interpolate(self, table: np.ndarray, speed_rad_s: float) -> np.ndarray:
         sp = self.speeds_rad_s
         if speed_rad_s <= sp[0]:
-            return self.matrices[0]
+            return table[0]
         if speed_rad_s >= sp[-1]:
-            return self.matrices[-1]
+            return table[-1]
         k = int(np.searchsorted(sp, speed_rad_s))
         w = (speed_rad_s - sp[k - 1]) / (sp[k] - sp[k - 1])
-        return (1 - w) * self.matrices[k - 1] + w * self.matrices[k]
+        return (1 - w) * table[k - 1] + w * table[k]
 
     def perturbed(self, phase_error_deg: float = 0.0, magnitude_factor: float = 1.0
                   ) -> "InfluenceSchedule":
@@ -59,7 +77,7 @@ class InfluenceSchedule:
             raise ModelError(f"magnitude_factor must be > 0 (got {magnitude_factor})")
         factor = magnitude_factor * np.exp(1j * np.deg2rad(phase_error_deg))
         return InfluenceSchedule(self.speeds_rad_s, self.harmonics, self.matrices * factor,
-                                 self.sensors, self.actuators)
+                                 self.sensors, self.actuators, self.disturbance, self.excitations)
 
 
 def schedule_speeds(start_rad_s: float, stop_rad_s: float, rel_step: float) -> np.ndarray:
@@ -71,11 +89,12 @@ def schedule_speeds(start_rad_s: float, stop_rad_s: float, rel_step: float) -> n
         else np.array([start_rad_s])
 
 
-def model_schedule(loop, sensors, actuators, harmonics, speeds_rad_s, w_F=None
-                   ) -> InfluenceSchedule:
+def model_schedule(loop, sensors, actuators, harmonics, speeds_rad_s, w_F=None,
+                   disturbance: bool = False) -> InfluenceSchedule:
     """The influence schedule of a :class:`rotor_avc.analysis.sampled_loop.SampledLoop` (the
     plant with the run's feedback controllers); ``w_F``: ``None`` for ``max(Omega, floor)`` or
-    a frozen damping frequency (rad/s)."""
+    a frozen damping frequency (rad/s); ``disturbance``: add the sensors' sampled-loop 1x
+    response per unit excitation (sensors must then be plant outputs)."""
     from ..analysis.transfer import sampled_transfer_frf
     speeds = np.asarray(speeds_rad_s, dtype=float)
     nyq = np.pi / loop.sample_period_s
@@ -90,4 +109,17 @@ def model_schedule(loop, sensors, actuators, harmonics, speeds_rad_s, w_F=None
             frf = sampled_transfer_frf(loop, speed, freqs, act, list(sensors), w_F)
             for i, name in enumerate(sensors):
                 out[s, :, i, j] = frf.responses[name]
-    return InfluenceSchedule(speeds, tuple(harmonics), out, tuple(sensors), tuple(actuators))
+    if not disturbance:
+        return InfluenceSchedule(speeds, tuple(harmonics), out, tuple(sensors), tuple(actuators))
+    outputs = [o.name for o in loop.plant.outputs]
+    missing = [name for name in sensors if name not in outputs]
+    if missing:
+        raise ModelError(f"sensors {missing} have no unbalance response in the model; adapting "
+                         "in the excitations needs plant outputs (" + ", ".join(outputs) + ")")
+    excs = tuple(e.name for e in loop.plant.excitations)
+    wf = None if w_F is None else np.full(speeds.shape, w_F)
+    frf = loop.unbalance_frf(speeds, w_F=wf)
+    dist = np.stack([np.stack([frf.responses[f"{name}_{e}"] for e in excs], axis=-1)
+                     for name in sensors], axis=1)
+    return InfluenceSchedule(speeds, tuple(harmonics), out, tuple(sensors), tuple(actuators),
+                             dist, excs)
