@@ -30,6 +30,7 @@ NODE_ARGS = {
     "foot_controller": ["-p", "scenario:=scenario_case3_steady", "-p", "foot_id:=DL"],
     "balancer": ["-p", "scenario:=scenario_balance_runup"],
     "synchronous_controller": ["-p", "scenario:=scenario_active_bearing"],
+    "harmonic_controller": ["-p", "scenario:=scenario_harmonic_case2_steady"],
     "recorder": ["-p", "scenario:=scenario_case3_steady", "-p", "path:={tmp}/colcon.mcap"],
 }
 

@@ -126,3 +126,26 @@ def test_with_case3_feedback_stable_and_better_than_either_alone():
     final_harmonic = harmonic[-3:].mean(axis=0)
     assert np.all(final_both <= np.minimum(shift, final_harmonic))
     assert revolutions_to(both, -20) <= revolutions_to(harmonic, -20)
+
+
+def test_study_strategies_table_and_report(tmp_path):
+    from rotor_avc.cli import main
+    from rotor_avc.config import find_config
+    path = tmp_path / "strategies.yaml"
+    path.write_text(f"""include: {find_config('scenario_harmonic_case3_steady')}
+harmonic: {{min_speed_hz: 40.0, start_s: 0.4}}
+simulation: {{duration_s: 2.0, speed: {{type: constant, speed_hz: {OFF_RESONANCE_HZ}}}}}
+""")
+    assert main(["study", "strategies", str(path), "--out", str(tmp_path / "out")]) == 0
+    import csv
+    with open(tmp_path / "out" / "strategies.csv") as fh:
+        table = {row["strategy"]: row for row in csv.DictReader(fh)}
+    assert set(table) == {"no control", "feedback", "harmonic steepest descent",
+                          "harmonic Newton", "harmonic WLS", "feedback + harmonic Newton"}
+    assert float(table["no control"]["1x bearing_D_vz (dB)"]) == 0.0
+    both = table["feedback + harmonic Newton"]
+    assert float(both["1x bearing_D_vz (dB)"]) < -40 and float(both["max |z| per revolution"]) < 1
+    assert float(table["harmonic Newton"]["phase limit (deg)"]) < 90
+    html = (tmp_path / "out" / "index.html").read_text()
+    assert "one_x_vs_time.png" in html and "<table>" in html
+    assert main(["study", "strategies"]) == 2              # scenario missing: a clear error

@@ -126,6 +126,13 @@ def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
     return HarmonicSettings(**kw)
 
 
+def harmonic_actuators(machine) -> list[str]:
+    """The actuators of the ``harmonic:`` section (validated), without building the block."""
+    sec = machine.config.section("harmonic")
+    ids = [a.id for a in machine.plant.actuators]
+    return _names(sec, "actuators", ids, default=ids)
+
+
 def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float,
                          w_F: float | None = None) -> HarmonicController:
     """The block of the machine's ``harmonic:`` section for speeds up to ``max_speed_rad_s``
@@ -136,8 +143,7 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     sec = machine.config.section("harmonic")
     sec.check_keys(HARMONIC_KEYS)
     plant = machine.plant
-    ids = [a.id for a in plant.actuators]
-    actuators = _names(sec, "actuators", ids, default=ids)
+    actuators = harmonic_actuators(machine)
     sensors = _names(sec, "sensors", MeasurementLayout(plant).names)
     harmonics = sec.raw("harmonics", [1])
     if not isinstance(harmonics, list) or not harmonics or any(

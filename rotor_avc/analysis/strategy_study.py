@@ -1,0 +1,155 @@
+"""Strategy comparison: one machine and speed profile under no control, the paper's feedback,
+adaptive harmonic control (each law), the two combined, and -- where the config has them -- the
+seed-002 feed-forward and the balancer.
+
+Every strategy is a variant of one scenario (a config with a ``harmonic:`` section): feedback =
+the config's ``controllers:``; harmonic = its ``harmonic:`` with the law replaced. Results from
+order tracking of the recorded sensor signals (one phasor per revolution,
+:func:`rotor_avc.analysis.order_tracking.phasor`), relative to the uncontrolled run's:
+
+* steady 1x attenuation per sensor: the mean level of the last ``TAIL`` revolutions (dB);
+* time to -20 dB: first revolution after the harmonic switch-on (``harmonic.start_s``) from which
+  every sensor stays 20 dB below the uncontrolled level (seconds);
+* peak actuator force (N) and peak foot displacement (m, the stroke's upper bound on a stiff
+  foundation) over the run;
+* robustness at a constant speed (the nearest with a whole number of samples per revolution):
+  the exact one-revolution loop's ``max |z|`` (:mod:`rotor_avc.analysis.harmonic_lti`) and the
+  quasi-steady phase-error limit of the law.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ..harmonic.laws import convergence_radius, update_matrices
+from .harmonic_lti import harmonic_poles
+from .order_tracking import phasor
+from .sampled_loop import machine_sampled_loop
+
+TAIL = 5
+LAWS = {"harmonic steepest descent": {"law": "steepest_descent"},
+        "harmonic Newton": {"law": "newton", "effort_weight": 0.0},
+        "harmonic WLS": {"law": "wls", "effort_weight": 1e-3}}
+
+
+@dataclass
+class StrategyResult:
+    name: str
+    time_s: np.ndarray                    # revolution centres
+    speed_hz: np.ndarray
+    level_db: np.ndarray                  # (revolutions, sensors), re the uncontrolled run
+    attenuation_db: list[float]
+    time_to_20db_s: float | None
+    peak_force_n: float
+    peak_foot_displacement_m: float
+    robustness: dict = field(default_factory=dict)
+
+
+def variants(data: dict) -> dict[str, dict]:
+    """The strategies' configs, derived from one merged scenario config."""
+    if "harmonic" not in data:
+        raise ModelError("the strategy study needs a scenario with a `harmonic:` section "
+                         "(e.g. include harmonic_bearings.yaml)")
+    out = {}
+
+    def make(name, controllers: bool, harmonic: dict | None, **sim):
+        d = copy.deepcopy(data)
+        if not controllers:
+            d.pop("controllers", None)
+        d["simulation"].update(harmonic=harmonic is not None, **sim)
+        if harmonic is not None:
+            d["harmonic"].update(harmonic)
+        out[name] = d
+
+    make("no control", False, None)
+    if data.get("controllers"):
+        make("feedback", True, None)
+    for name, law in LAWS.items():
+        make(name, False, law)
+    if data.get("controllers"):
+        make("feedback + harmonic Newton", True, LAWS["harmonic Newton"])
+    if data.get("model") == "active_bearing":
+        make("feed-forward (seed 002)", False, None, feedforward={"type": "synchronous"})
+    if data.get("balancer"):
+        make("balancer", bool(data.get("controllers")), None, balancer=True)
+    return out
+
+
+def revolutions(ts, sensors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """1x magnitudes per whole revolution: ``(time_s, speed_hz, |Y| (revs, sensors))``."""
+    theta = ts.angle_rad
+    marks = theta[0] + 2 * np.pi * np.arange(int((theta[-1] - theta[0]) / (2 * np.pi)) + 1)
+    idx = np.searchsorted(theta, marks)
+    y = np.stack([ts.channels[s] for s in sensors], axis=1)
+    spans = [(a, b) for a, b in zip(idx[:-1], idx[1:]) if b > a + 2]
+    if not spans:
+        raise ModelError("the run covers less than one revolution")
+    amps = np.array([np.abs(phasor(theta[a:b], y[a:b])) for a, b in spans])
+    mid = np.array([(a + b) // 2 for a, b in spans])
+    return ts.time_s[mid], ts.speed_rad_s[mid] / (2 * np.pi), amps
+
+
+def robustness(scenario, block) -> dict:
+    """At a constant speed (moved to the nearest whole number of samples per revolution, the
+    exact analysis needs one): the one-revolution loop's ``max |z|`` and the quasi-steady
+    phase-error limit of the law (1 degree steps)."""
+    speeds = scenario.profile.speeds_rad_s
+    if speeds.size != 1:
+        return {}
+    T = scenario.sample_period_s
+    w = 2 * np.pi / (max(round(2 * np.pi / (float(speeds[0]) * T)), 3) * T)
+    s = block.settings
+    G = block.schedule.at(w)
+    gain = block.gain_at(w)
+    poles = harmonic_poles(machine_sampled_loop(scenario.machine, T), w, w, block.actuator_ids,
+                           block.sensors, block.harmonics, G, s.law, gain,
+                           effort_weight=s.effort_weight, leakage=s.leakage,
+                           sensor_weights=s.sensor_weights)
+    limit = 0.0
+    for phi in np.arange(0.0, 181.0, 1.0):
+        A_U, B = update_matrices(G[0] * np.exp(1j * np.deg2rad(phi)), s.law, gain,
+                                 effort_weight=s.effort_weight, leakage=s.leakage,
+                                 sensor_weights=s.sensor_weights)
+        if convergence_radius(A_U, B, G[0]) >= 1:
+            break
+        limit = phi
+    return {"speed_hz": w / (2 * np.pi), "max_abs_z_per_rev": poles.max_abs_z,
+            "stable": poles.stable, "phase_limit_deg": limit}
+
+
+def strategy_study(data: dict, source: str = "") -> tuple[list[StrategyResult], list[str]]:
+    """Run every strategy of a scenario config; ``(results, sensor names)``."""
+    from ..sim.scenario import scenario_from_config
+    configs = variants(data)
+    sensors = list(data["harmonic"].get("sensors", []))
+    if not sensors:
+        raise ModelError("harmonic.sensors is empty: nothing to rate the strategies on")
+    start_s = float(data["harmonic"].get("start_s", 0.0))
+    results, reference = [], None
+    for name, cfg in configs.items():
+        sc = scenario_from_config(cfg, source)
+        block = sc.harmonic()
+        ts = sc.run(harmonic=block, progress=False)
+        t, f, amps = revolutions(ts, sensors)
+        if reference is None:
+            reference = amps
+        n = min(len(amps), len(reference))
+        with np.errstate(divide="ignore"):
+            level = 20 * np.log10(amps[:n] / reference[:n])
+        after = t[:n] >= start_s
+        ok = np.all(level < -20.0, axis=1) & after
+        stays = [i for i in np.flatnonzero(ok) if ok[i:].all()]
+        forces = [v for k, v in ts.channels.items() if k.startswith("actuator_")]
+        feet = [v for k, v in ts.channels.items()
+                if k.startswith("foot_") and k.rsplit("_", 1)[-1].startswith("d")]
+        results.append(StrategyResult(
+            name, t[:n], f[:n], level, level[-TAIL:].mean(axis=0).tolist(),
+            float(t[stays[0]] - start_s) if stays else None,
+            float(max((np.abs(v).max() for v in forces), default=0.0)),
+            float(max((np.abs(v).max() for v in feet), default=math.nan)),
+            robustness(sc, block) if block is not None else {}))
+    return results, sensors
