@@ -151,3 +151,18 @@ def test_settings_and_config_errors():
         with pytest.raises(ConfigError) as err:
             scenario_from_config(data, "test").harmonic()
         assert err.value.field == field
+
+
+def test_block_cancels_1x_and_2x_together():
+    T, speed = 1e-3, 2 * np.pi * 9.7
+    G1, G2 = random_g(2, 3), random_g(2, 3)
+    P1, P2 = np.array([0.3 + 0.2j, -0.1j]), np.array([0.05, 0.02 - 0.04j])
+    sched = InfluenceSchedule(np.array([0.5 * speed, 2 * speed]), (1, 2),
+                              np.stack([np.stack([G1, G2])] * 2), ("a", "b"), ("x", "y", "z"))
+    block = HarmonicController(sched, T, HarmonicSettings(gain=0.8, min_speed_hz=1))
+    for k in range(5000):
+        angle = speed * k * T
+        y = ((P1 + G1 @ block.U[0]) * np.exp(1j * angle)
+             + (P2 + G2 @ block.U[1]) * np.exp(2j * angle)).real
+        block.step(list(y), angle, speed)
+    assert np.abs(P1 + G1 @ block.U[0]).max() < 1e-6 and np.abs(P2 + G2 @ block.U[1]).max() < 1e-6

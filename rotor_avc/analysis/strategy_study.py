@@ -12,6 +12,10 @@ order tracking of the recorded sensor signals (one phasor per revolution,
   every sensor stays 20 dB below the uncontrolled level (seconds);
 * peak actuator force (N) and peak foot displacement (m, the stroke's upper bound on a stiff
   foundation) over the run;
+* over a run-up: the 1x peak reduction at each resonance of the uncontrolled model (peaks of
+  its sampled-loop unbalance response at the sensors, :func:`rotor_avc.analysis.resonance_peaks.
+  model_peaks`): the uncontrolled run's highest per-revolution level within ``PEAK_BAND_HZ`` of
+  the resonance minus the strategy's there (dB);
 * robustness at a constant speed (the nearest with a whole number of samples per revolution):
   the exact one-revolution loop's ``max |z|`` (:mod:`rotor_avc.analysis.harmonic_lti`) and the
   quasi-steady phase-error limit of the law.
@@ -28,9 +32,11 @@ from ..errors import ModelError
 from ..harmonic.laws import convergence_radius, update_matrices
 from .harmonic_lti import harmonic_poles
 from .order_tracking import phasor
+from .resonance_peaks import model_peaks
 from .sampled_loop import machine_sampled_loop
 
 TAIL = 5
+PEAK_BAND_HZ = 1.0
 LAWS = {"harmonic steepest descent": {"law": "steepest_descent"},
         "harmonic Newton": {"law": "newton", "effort_weight": 0.0},
         "harmonic WLS": {"law": "wls", "effort_weight": 1e-3}}
@@ -42,11 +48,14 @@ class StrategyResult:
     time_s: np.ndarray                    # revolution centres
     speed_hz: np.ndarray
     level_db: np.ndarray                  # (revolutions, sensors), re the uncontrolled run
+    amplitude: np.ndarray                 # (revolutions, sensors), 1x magnitude (SI)
     attenuation_db: list[float]
     time_to_20db_s: float | None
     peak_force_n: float
     peak_foot_displacement_m: float
     robustness: dict = field(default_factory=dict)
+    #: run-ups: ``(sensor, resonance Hz) -> 1x peak reduction (dB)``
+    peak_reduction_db: dict = field(default_factory=dict)
 
 
 def variants(data: dict) -> dict[str, dict]:
@@ -121,6 +130,31 @@ def robustness(scenario, block) -> dict:
             "stable": poles.stable, "phase_limit_deg": limit}
 
 
+def model_resonances(scenario, sensors) -> list[tuple[str, float]]:
+    """``(sensor, Hz)`` of the resonance peaks of the uncontrolled model over the profile's
+    speeds (the scenario's own unbalance)."""
+    prof = scenario.profile
+    lo = max(prof.min_speed_rad_s, 2 * np.pi * 1.0)
+    speeds = np.linspace(lo, prof.max_speed_rad_s, 3000)
+    frf = machine_sampled_loop(scenario.machine, scenario.sample_period_s).unbalance_frf(speeds)
+    out = []
+    for name in sensors:
+        resp = sum(frf.responses[f"{name}_{e}"] * a for e, a in scenario.amplitudes.items())
+        out += [(name, p["freq_hz"]) for p in model_peaks(speeds / (2 * np.pi), resp)]
+    return out
+
+
+def peak_reductions(result, reference, sensors, resonances) -> dict:
+    out = {}
+    for name, f in resonances:
+        i = sensors.index(name)
+        band = np.abs(reference.speed_hz - f) <= PEAK_BAND_HZ
+        if band.any():
+            out[(name, f)] = float(20 * np.log10(reference.amplitude[band, i].max()
+                                                 / result.amplitude[band, i].max()))
+    return out
+
+
 def strategy_study(data: dict, source: str = "") -> tuple[list[StrategyResult], list[str]]:
     """Run every strategy of a scenario config; ``(results, sensor names)``."""
     from ..sim.scenario import scenario_from_config
@@ -147,9 +181,13 @@ def strategy_study(data: dict, source: str = "") -> tuple[list[StrategyResult], 
         feet = [v for k, v in ts.channels.items()
                 if k.startswith("foot_") and k.rsplit("_", 1)[-1].startswith("d")]
         results.append(StrategyResult(
-            name, t[:n], f[:n], level, level[-TAIL:].mean(axis=0).tolist(),
+            name, t[:n], f[:n], level, amps[:n], level[-TAIL:].mean(axis=0).tolist(),
             float(t[stays[0]] - start_s) if stays else None,
             float(max((np.abs(v).max() for v in forces), default=0.0)),
             float(max((np.abs(v).max() for v in feet), default=math.nan)),
             robustness(sc, block) if block is not None else {}))
+    if sc.profile.speeds_rad_s.size > 1:
+        resonances = model_resonances(scenario_from_config(configs["no control"], source), sensors)
+        for r in results:
+            r.peak_reduction_db = peak_reductions(r, results[0], sensors, resonances)
     return results, sensors

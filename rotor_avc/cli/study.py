@@ -88,6 +88,10 @@ def run_strategies(args) -> int:
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
     for line in [head, *body]:
         print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)))
+    for r in results:
+        if r.peak_reduction_db:
+            print(f"{r.name}: 1x peak reduction " + ", ".join(
+                f"{n} {f:.1f} Hz {v:.1f} dB" for (n, f), v in r.peak_reduction_db.items()))
     print(f"report: {path}")
     return 0
 

@@ -62,12 +62,24 @@ def write_report(results, sensors, out_dir: Path, source: str, plot: bool = True
     pngs = plots(results, sensors, out_dir) if plot else []
     imgs = "".join(f"<h3>{html.escape(p.name)}</h3><img src='data:image/png;base64,"
                    f"{base64.b64encode(p.read_bytes()).decode()}'/>" for p in pngs)
+    peaks = ""
+    if results and results[0].peak_reduction_db:
+        keys = list(results[0].peak_reduction_db)
+        p_head = ["strategy"] + [f"{n} {f:.1f} Hz" for n, f in keys]
+        p_body = [[r.name] + [f"{r.peak_reduction_db.get(k, float('nan')):.1f}" for k in keys]
+                  for r in results]
+        peaks = ("<h2>1x peak reduction at the model's resonances (dB)</h2>"
+                 + _table(p_body, p_head))
+        with open(out_dir / "peak_reductions.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(p_head)
+            w.writerows(p_body)
     text = (f"<html><head><meta charset='utf-8'><title>strategies</title></head><body>"
             f"<h1>Vibration control strategies</h1><p>{html.escape(source)}: 1x per sensor re "
             f"the uncontrolled run (mean of the last revolutions), time to stay 20 dB below it "
             f"after the harmonic switch-on, peak actuator force and foot displacement, exact "
             f"one-revolution loop radius and quasi-steady phase-error limit of the harmonic "
-            f"law.</p>{_table(body, head)}{imgs}</body></html>")
+            f"law.</p>{_table(body, head)}{peaks}{imgs}</body></html>")
     path = out_dir / "index.html"
     path.write_text(text)
     return path
