@@ -21,7 +21,7 @@ ament_packages = pytest.importorskip("ament_index_python.packages")
 ROOT = Path(__file__).resolve().parents[1]
 #: the node list setup.py installs (read, not imported: importing setup.py would run setup())
 NODES = ast.literal_eval(re.search(r"^NODES = (\[.*?\])", (ROOT / "setup.py").read_text(),
-                                   re.M).group(1))
+                                   re.M | re.S).group(1))
 
 pytestmark = pytest.mark.ros
 

@@ -143,6 +143,7 @@ class HarmonicController:
         self._hm = [(h, hi * m) for hi, h in enumerate(self.harmonics)]
         self._shape = (len(self.harmonics), m, n)
         self._min_speed = TWO_PI * settings.min_speed_hz
+        self._max_speed = float(schedule.speeds_rad_s[-1])
         self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
         self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
         self.reset()
@@ -222,14 +223,16 @@ class HarmonicController:
         return {"mode": self.mode, "reason": self.reason, "updates": self.n_updates,
                 "error_abs": np.abs(self.E).tolist(), "force_abs_n": np.abs(self.U).tolist(),
                 "saturated": self.saturated,
-                "residual": [r.residual for r in self.rls]}
+                "residual": [r.residual for r in self.rls],
+                "excitation_estimate": {e: [c.real, c.imag] for e, c in
+                                        zip(self.schedule.excitations, self.C.tolist())}}
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self, signals, angle: float, speed: float) -> list[float]:
         """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
         k = self.k
         self.k = k + 1
-        if self.mode == "off" or speed < self._min_speed:
+        if self.mode == "off" or not self._min_speed <= speed <= self._max_speed:
             if not self._may_run(k, speed):
                 return self._zero
         w = speed * self.sample_period_s
