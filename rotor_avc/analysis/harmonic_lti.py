@@ -266,3 +266,25 @@ def gain_schedule(loop: SampledLoop, schedule, settings, speeds_rad_s, candidate
         out_s.append(w)
         out_g.append(max(ok) if ok else min(candidates))
     return tuple(out_s), tuple(out_g)
+
+
+def stable_gain_limit(radius, nominal: float, max_factor: float = 100.0, rtol: float = 0.02
+                      ) -> float:
+    """Gain margin: the factor on the ``nominal`` gain up to which ``radius(gain) < 1`` holds
+    continuously from the nominal (log-grid scan, then bisection); 0 if unstable at nominal,
+    ``inf`` if stable up to ``max_factor``."""
+    if radius(nominal) >= 1.0:
+        return 0.0
+    grid = nominal * np.geomspace(1.0, max_factor, 13)
+    lo = grid[0]
+    for g in grid[1:]:
+        if radius(g) >= 1.0:
+            hi = g
+            break
+        lo = g
+    else:
+        return float("inf")
+    while hi / lo - 1.0 > rtol:
+        mid = np.sqrt(lo * hi)
+        lo, hi = (mid, hi) if radius(mid) < 1.0 else (lo, mid)
+    return float(np.sqrt(lo * hi) / nominal)

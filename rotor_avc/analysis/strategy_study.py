@@ -17,8 +17,9 @@ order tracking of the recorded sensor signals (one phasor per revolution,
   model_peaks`): the uncontrolled run's highest per-revolution level within ``PEAK_BAND_HZ`` of
   the resonance minus the strategy's there (dB);
 * robustness at a constant speed (the nearest with a whole number of samples per revolution):
-  the exact one-revolution loop's ``max |z|`` (:mod:`rotor_avc.analysis.harmonic_lti`) and the
-  quasi-steady phase-error limit of the law.
+  the exact one-revolution loop's ``max |z|`` (:mod:`rotor_avc.analysis.harmonic_lti`), its
+  gain margin (factor on the gain to ``max |z| = 1``) and the quasi-steady phase-error limit of
+  the law.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..harmonic.laws import convergence_radius, update_matrices
-from .harmonic_lti import harmonic_poles
+from .harmonic_lti import harmonic_poles, loop_with_input, stable_gain_limit
 from .order_tracking import phasor
 from .resonance_peaks import model_peaks
 from .sampled_loop import machine_sampled_loop
@@ -114,10 +115,16 @@ def robustness(scenario, block) -> dict:
     s = block.settings
     G = block.schedule.at(w)
     gain = block.gain_at(w)
-    poles = harmonic_poles(machine_sampled_loop(scenario.machine, T), w, w, block.actuator_ids,
-                           block.sensors, block.harmonics, G, s.law, gain,
-                           effort_weight=s.effort_weight, leakage=s.leakage,
-                           sensor_weights=s.sensor_weights)
+    loop = machine_sampled_loop(scenario.machine, T)
+    lwi = loop_with_input(loop, w, w, block.actuator_ids, block.sensors)
+
+    def radius(g):
+        return harmonic_poles(loop, w, w, block.actuator_ids, block.sensors, block.harmonics, G,
+                              s.law, g, effort_weight=s.effort_weight, leakage=s.leakage,
+                              sensor_weights=s.sensor_weights, lwi=lwi).max_abs_z
+
+    r0 = radius(gain)
+    margin = stable_gain_limit(radius, gain)
     limit = 0.0
     for phi in np.arange(0.0, 181.0, 1.0):
         A_U, B = update_matrices(G[0] * np.exp(1j * np.deg2rad(phi)), s.law, gain,
@@ -126,8 +133,8 @@ def robustness(scenario, block) -> dict:
         if convergence_radius(A_U, B, G[0]) >= 1:
             break
         limit = phi
-    return {"speed_hz": w / (2 * np.pi), "max_abs_z_per_rev": poles.max_abs_z,
-            "stable": poles.stable, "phase_limit_deg": limit}
+    return {"speed_hz": w / (2 * np.pi), "max_abs_z_per_rev": r0, "stable": r0 < 1.0,
+            "gain_margin": margin, "phase_limit_deg": limit}
 
 
 def model_resonances(scenario, sensors) -> list[tuple[str, float]]:
