@@ -39,7 +39,8 @@ def main():
     print(f"  loop step without the block        {t_without * 1e6:7.2f} us")
     print(f"  loop step with the block           {t_with * 1e6:7.2f} us "
           f"= {t_with / t_without:5.2f} x without")
-    print(f"  the block's cost per sample        {(t_with - t_without) * 1e6:7.2f} us (goal <= 5 us)")
+    print(f"  the block's cost per sample        {(t_with - t_without) * 1e6:7.2f} us "
+          "(goal <= 5 us)")
 
 
 if __name__ == "__main__":

@@ -178,8 +178,8 @@ def test_gain_margin_of_the_exact_loop_matches_time_simulation():
     assert 1 < margin < 100
     rates = []
     for factor in (0.7, 1.6):
-        sim = scenario("scenario_harmonic_case2_steady", speed_hz, 12.0, gain=gain * margin * factor,
-                       fallback={"divergence_factor": 1e12})
+        sim = scenario("scenario_harmonic_case2_steady", speed_hz, 12.0,
+                       gain=gain * margin * factor, fallback={"divergence_factor": 1e12})
         rates.append(growth_per_revolution(sim.run(), speed_hz))
     assert rates[0] < 1.0 < rates[1]
 

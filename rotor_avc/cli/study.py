@@ -29,8 +29,9 @@ def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name "
                                   "(sleeve_bearing_motor); its controllers are replaced -- or "
                                   "the word `strategies` followed by a scenario")
-    p.add_argument("scenario", nargs="?", help="with `strategies`: a scenario with a "
-                                               "`harmonic:` section (scenario_harmonic_case3_steady)")
+    p.add_argument("scenario", nargs="?",
+                   help="with `strategies`: a scenario with a `harmonic:` section "
+                        "(scenario_harmonic_case3_steady)")
     p.add_argument("--feedback", choices=list(FEEDBACK_ORDER), action="append",
                    help="feedback kind (repeatable; default: every kind in the config's "
                         "analysis.study.gains)")

@@ -32,8 +32,8 @@ scaling the stored phasors themselves, so the adaptation never winds up beyond t
 
 Safe fallback: the loop is taken to diverge when ``|E| / Omega^2`` exceeds ``divergence_factor``
 times its value at switch-on (an unbalance response grows with ``Omega^2``; the default 100
-leaves room for a resonance's amplification during a run-up), and the estimate to be poor when the identification's prediction residual
-stays above ``poor_residual`` for ``patience`` updates; then the block stops adapting and either
+leaves room for a resonance's amplification during a run-up), and the estimate to be poor when
+the identification's prediction residual stays above ``poor_residual`` for ``patience`` updates; then the block stops adapting and either
 holds its phasors (``freeze``) or fades them out over about ``fade_updates`` updates (``fade``),
 and reports it in :attr:`status` until :meth:`reset`.
 
@@ -94,7 +94,8 @@ class HarmonicSettings:
         """ModelError naming the first setting out of range."""
         check_law(self.law, self.gain, self.effort_weight, self.leakage)
         if len(self.gain_speeds_rad_s) != len(self.gain_values) or any(
-                not (v > 0 and math.isfinite(v)) for v in self.gain_speeds_rad_s + self.gain_values):
+                not (v > 0 and math.isfinite(v))
+                for v in self.gain_speeds_rad_s + self.gain_values):
             raise ModelError("the gain schedule needs as many speeds as gains, all > 0")
         if self.adapt_in not in ADAPT_IN:
             raise ModelError(f"unknown adapt_in {self.adapt_in!r}; use one of {ADAPT_IN}")

@@ -149,7 +149,8 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     if not isinstance(harmonics, list) or not harmonics or any(
             isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in harmonics) \
             or len(set(harmonics)) != len(harmonics):
-        raise sec.error("harmonics", f"must be a list of distinct integers >= 1 (got {harmonics!r})",
+        raise sec.error("harmonics",
+                        f"must be a list of distinct integers >= 1 (got {harmonics!r})",
                         fix="e.g. [1] or [1, 2]")
     settings = harmonic_settings(sec, len(sensors))
     inf = sec.section("influence", {})

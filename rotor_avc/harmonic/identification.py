@@ -40,7 +40,8 @@ class InfluenceRls:
         self.shape = (n_sensors, n_actuators)
         self.forgetting = float(forgetting)
         if not 0 <= min_rel_change < 1:
-            raise ModelError(f"the minimum relative change must lie in [0, 1) (got {min_rel_change})")
+            raise ModelError("the minimum relative change must lie in [0, 1) "
+                             f"(got {min_rel_change})")
         self.min_change = float(min_change)
         self.min_rel_change = float(min_rel_change)
         self.reset()

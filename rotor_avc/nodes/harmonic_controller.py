@@ -1,7 +1,7 @@
 """``harmonic_controller``: the adaptive harmonic (1x, nx) controller as a ROS node.
 
-Run: ``ros2 run rotor_avc harmonic_controller --ros-args -p scenario:=scenario_harmonic_case2_steady``
-(or ``python -m rotor_avc.nodes.harmonic_controller ...``); the plant runs with
+Run: ``ros2 run rotor_avc harmonic_controller --ros-args -p
+scenario:=scenario_harmonic_case2_steady`` (or ``python -m rotor_avc.nodes.harmonic_controller ...``); the plant runs with
 ``-p harmonic:=true``.
 
 A thin adapter over :class:`rotor_avc.harmonic.block.HarmonicController` as the scenario's

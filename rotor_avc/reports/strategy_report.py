@@ -25,7 +25,8 @@ def rows(results, sensors) -> tuple[list[str], list[list]]:
     for r in results:
         rb = r.robustness
         out.append([r.name] + [f"{v:.1f}" for v in r.attenuation_db]
-                   + [_fmt(r.time_to_20db_s), _fmt(r.peak_force_n), _fmt(r.peak_foot_displacement_m),
+                   + [_fmt(r.time_to_20db_s), _fmt(r.peak_force_n),
+                      _fmt(r.peak_foot_displacement_m),
                       _fmt(rb.get("speed_hz"), 4), _fmt(rb.get("max_abs_z_per_rev"), 5),
                       _fmt(rb.get("gain_margin")), _fmt(rb.get("phase_limit_deg"))])
     return head, out

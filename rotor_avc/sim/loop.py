@@ -108,7 +108,8 @@ def harmonic_plan(stepper: PlantStepper, controllers: Mapping, harmonic, ff_pos=
              for a in harmonic.actuator_ids])
 
 
-def harmonic_forces(stepper: PlantStepper, harmonic, plan, y: np.ndarray, forces: np.ndarray) -> None:
+def harmonic_forces(stepper: PlantStepper, harmonic, plan, y: np.ndarray,
+                    forces: np.ndarray) -> None:
     """Step the harmonic block on its signals in ``y_k``; add its forces to ``forces`` (to the
     feedback or feed-forward force where the actuator has one)."""
     item = y.item
