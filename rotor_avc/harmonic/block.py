@@ -147,6 +147,7 @@ class HarmonicController:
         self._max_speed = float(schedule.speeds_rad_s[-1])
         self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
         self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
+        self._every = settings.update_every_samples
         self.reset()
 
     # -- state -------------------------------------------------------------------------------
@@ -238,32 +239,32 @@ class HarmonicController:
                 return self._zero
         w = speed * self.sample_period_s
         acc = self._acc
+        trig = []
         for h, base in self._hm:
-            c = math.cos(h * angle) * w
-            s = math.sin(h * angle) * w
+            c = math.cos(h * angle)
+            s = math.sin(h * angle)
+            trig.append((c, s))
+            cw, sw = c * w, s * w
             i = 2 * base
             for v in signals:
-                acc[i] += v * c
-                acc[i + 1] -= v * s
+                acc[i] += v * cw
+                acc[i + 1] -= v * sw
                 i += 2
         self._span += w
         self._count += 1
-        every = self.settings.update_every_samples
+        every = self._every
         if (self._count >= every) if every else (self._span >= TWO_PI):
             self._update(signals)
         elif self._refresh:
             self._since_refresh += 1
             if self._since_refresh >= self._refresh and self.mode == "adapting":
                 self._synthesise(speed)
-        if len(self._out) == 1:
-            h, re, im = self._out[0]
-            c = math.cos(h * angle)
-            s = math.sin(h * angle)
+        if len(trig) == 1:
+            c, s = trig[0]
+            _, re, im = self._out[0]
             return [a * c - b * s for a, b in zip(re, im)]
         forces = list(self._zero)
-        for h, re, im in self._out:
-            c = math.cos(h * angle)
-            s = math.sin(h * angle)
+        for (c, s), (_, re, im) in zip(trig, self._out):
             for j in range(len(forces)):
                 forces[j] += re[j] * c - im[j] * s
         return forces
