@@ -37,6 +37,7 @@ from .resonance_peaks import model_peaks
 from .sampled_loop import machine_sampled_loop
 
 TAIL = 5
+PHASE_STEP_DEG = 5.0
 PEAK_BAND_HZ = 1.0
 LAWS = {"harmonic steepest descent": {"law": "steepest_descent"},
         "harmonic Newton": {"law": "newton", "effort_weight": 0.0},
@@ -105,8 +106,8 @@ def revolutions(ts, sensors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def robustness(scenario, block) -> dict:
     """At a constant speed (moved to the nearest whole number of samples per revolution, the
-    exact analysis needs one): the one-revolution loop's ``max |z|`` and the quasi-steady
-    phase-error limit of the law (1 degree steps)."""
+    exact analysis needs one): the one-revolution loop's ``max |z|``, gain margin and
+    phase-error limits (module docstring)."""
     speeds = scenario.profile.speeds_rad_s
     if speeds.size != 1:
         return {}
@@ -118,23 +119,32 @@ def robustness(scenario, block) -> dict:
     loop = machine_sampled_loop(scenario.machine, T)
     lwi = loop_with_input(loop, w, w, block.actuator_ids, block.sensors)
 
-    def radius(g):
-        return harmonic_poles(loop, w, w, block.actuator_ids, block.sensors, block.harmonics, G,
-                              s.law, g, effort_weight=s.effort_weight, leakage=s.leakage,
+    def radius(g, est=G):
+        return harmonic_poles(loop, w, w, block.actuator_ids, block.sensors, block.harmonics,
+                              est, s.law, g, effort_weight=s.effort_weight, leakage=s.leakage,
                               sensor_weights=s.sensor_weights, lwi=lwi).max_abs_z
+
+    def converges(phi, exact):
+        est = G * np.exp(1j * np.deg2rad(phi))
+        if exact:
+            return radius(gain, est) < 1
+        A_U, B = update_matrices(est[0], s.law, gain, effort_weight=s.effort_weight,
+                                 leakage=s.leakage, sensor_weights=s.sensor_weights)
+        return convergence_radius(A_U, B, G[0]) < 1
 
     r0 = radius(gain)
     margin = stable_gain_limit(radius, gain)
-    limit = 0.0
-    for phi in np.arange(0.0, 181.0, 1.0):
-        A_U, B = update_matrices(G[0] * np.exp(1j * np.deg2rad(phi)), s.law, gain,
-                                 effort_weight=s.effort_weight, leakage=s.leakage,
-                                 sensor_weights=s.sensor_weights)
-        if convergence_radius(A_U, B, G[0]) >= 1:
-            break
-        limit = phi
+    limits = {}
+    for exact in (False, True):
+        limit = None
+        for phi in np.arange(0.0, 181.0, PHASE_STEP_DEG):
+            if not converges(phi, exact):
+                break
+            limit = float(phi)
+        limits[exact] = limit
     return {"speed_hz": w / (2 * np.pi), "max_abs_z_per_rev": r0, "stable": r0 < 1.0,
-            "gain_margin": margin, "phase_limit_deg": limit}
+            "gain_margin": margin, "phase_limit_deg": limits[False],
+            "exact_phase_limit_deg": limits[True]}
 
 
 def model_resonances(scenario, sensors) -> list[tuple[str, float]]:

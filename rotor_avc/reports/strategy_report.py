@@ -20,7 +20,7 @@ def rows(results, sensors) -> tuple[list[str], list[list]]:
     head = (["strategy"] + [f"1x {s} (dB)" for s in sensors]
             + ["time to -20 dB (s)", "peak force (N)", "peak foot displacement (m)",
                "analysed at (Hz)", "max |z| per revolution", "gain margin",
-               "phase limit (deg)"])
+               "phase limit (deg)", "exact phase limit (deg)"])
     out = []
     for r in results:
         rb = r.robustness
@@ -28,7 +28,8 @@ def rows(results, sensors) -> tuple[list[str], list[list]]:
                    + [_fmt(r.time_to_20db_s), _fmt(r.peak_force_n),
                       _fmt(r.peak_foot_displacement_m),
                       _fmt(rb.get("speed_hz"), 4), _fmt(rb.get("max_abs_z_per_rev"), 5),
-                      _fmt(rb.get("gain_margin")), _fmt(rb.get("phase_limit_deg"))])
+                      _fmt(rb.get("gain_margin")), _fmt(rb.get("phase_limit_deg")),
+                      _fmt(rb.get("exact_phase_limit_deg"))])
     return head, out
 
 
