@@ -216,3 +216,28 @@ def test_robustness_map_points_confirmed_by_time_simulation(law):
         assert (growth_per_revolution(sim.run(), speed_hz) < 1) == (r < 1), (phases[i], mags[j])
         checked.add(r < 1)
     assert checked == {True, False}
+
+
+def test_seed002_bearing_actuators_converge_to_the_quantified_feedforward():
+    # seed 002: four bearing actuators cancelling the 1x of the four housing motions; the
+    # converged force phasors equal the paper's exact quantified force (digest 6.5), played by
+    # the synchronous generator as sample phasors (ZOH compensation included)
+    from rotor_avc.analysis.active_bearing_ff import synchronous_generator
+    from rotor_avc.sim.scenario import load_scenario
+    scen = load_scenario("scenario_harmonic_active_bearing")
+    block = scen.harmonic()
+    ts = scen.run(harmonic=block)
+    w = float(scen.profile.speeds_rad_s[0])
+    T = scen.sample_period_s
+    P = int(round(2 * np.pi / (w * T)))
+    k0 = int(block.settings.start_s / T)
+    for name in block.sensors:
+        y = ts.channels[name]
+        before = abs(phasor(ts.angle_rad[k0 - P:k0], y[k0 - P:k0]))
+        after = abs(phasor(ts.angle_rad[-P:], y[-P:]))
+        assert after < 1e-2 * before, name                       # >= 40 dB
+    gen = synchronous_generator(scen.machine.plant, T, scen.amplitudes["unbalance"], "exact")
+    assert tuple(gen.actuator_ids) == block.actuator_ids
+    half = 0.5 * w * T
+    samples = gen.phasors(w) * np.exp(1j * half) * half / np.sin(half)
+    assert np.abs(block.U[0] - samples).max() < 1e-2 * np.abs(samples).max()
