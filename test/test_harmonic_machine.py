@@ -240,4 +240,4 @@ def test_seed002_bearing_actuators_converge_to_the_quantified_feedforward():
     assert tuple(gen.actuator_ids) == block.actuator_ids
     half = 0.5 * w * T
     samples = gen.phasors(w) * np.exp(1j * half) * half / np.sin(half)
-    assert np.abs(block.U[0] - samples).max() < 1e-2 * np.abs(samples).max()
+    assert np.abs(block.U[0] - samples).max() < 1e-4 * np.abs(samples).max()
