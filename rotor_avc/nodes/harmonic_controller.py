@@ -26,6 +26,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..errors import ModelError, RotorAvcError
 from ..harmonic.block import MODES
+from ..sim.stepper import MeasurementLayout
 from . import messages as m
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming
@@ -54,7 +55,7 @@ class HarmonicControllerNode(Node):
             raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
                                 "`simulation.harmonic: true` -- fix: use a harmonic scenario")
         self.block.reset()
-        layout_names = sc.stepper().layout.names
+        layout_names = MeasurementLayout(sc.machine.plant).names
         self.obs_label = ",".join(("time_s",) + tuple(layout_names))
         self.sensor_at = [1 + layout_names.index(s) for s in self.block.sensors]
         ns = self.p["namespace"]
