@@ -14,8 +14,8 @@ import copy  # noqa: E402
 
 from bench_sim import best_of  # noqa: E402
 from rotor_avc.config import load_config  # noqa: E402
-from rotor_avc.sim.loop import run_loop  # noqa: E402
 from rotor_avc.scenario import scenario_from_config  # noqa: E402
+from rotor_avc.sim.loop import run_loop  # noqa: E402
 
 
 def main():

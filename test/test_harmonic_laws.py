@@ -142,6 +142,7 @@ def test_settings_and_config_errors():
     for change, field in (({"sensors": ["bearing_X_vz"]}, "harmonic.sensors"),
                           ({"law": "wls"}, "harmonic.effort_weight"),
                           ({"gain": -1}, "harmonic.gain"),
+                          ({"gain": "fast"}, "harmonic.gain"),
                           ({"harmonics": [0]}, "harmonic.harmonics"),
                           ({"fallback": {"mode": "stop"}}, "harmonic.fallback.mode"),
                           ({"identification": {"forgeting": 0.9}},

@@ -81,6 +81,9 @@ def _names(sec, key, known, default=None):
 def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
     """:class:`HarmonicSettings` from the section (ConfigError naming the field)."""
     num = lambda key, default, **kw: sec.number(key, default, **kw)  # noqa: E731
+    if isinstance(sec.raw("gain", None), str) and sec.raw("gain") != "auto":
+        raise sec.error("gain", f"must be a number > 0 or `auto` (got {sec.raw('gain')!r})",
+                        fix="e.g. gain: 0.5, or gain: auto (per speed from the loop analysis)")
     kw = {"law": sec.choice("law", LAWS, default="newton"),
           "gain": 0.5 if sec.raw("gain", None) == "auto" else num("gain", 0.5, positive=True),
           "adapt_in": sec.choice("adapt_in", ADAPT_IN, default="forces"),

@@ -33,6 +33,7 @@ from ..analysis.order_tracking import phasor
 from ..analysis.resonance_peaks import model_peaks
 from ..analysis.sampled_loop import machine_sampled_loop
 from ..errors import ModelError
+from ..machine import models_supporting
 from .laws import convergence_radius, update_matrices
 from .lti import harmonic_poles, loop_with_input, stable_gain_limit
 
@@ -83,7 +84,7 @@ def variants(data: dict) -> dict[str, dict]:
         make(name, False, law)
     if data.get("controllers"):
         make("feedback + harmonic Newton", True, LAWS["harmonic Newton"])
-    if data.get("model") == "active_bearing":
+    if data.get("model") in models_supporting("feedforward"):
         make("feed-forward (seed 002)", False, None, feedforward={"type": "synchronous"})
     if data.get("balancer"):
         make("balancer", bool(data.get("controllers")), None, balancer=True)
