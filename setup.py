@@ -5,7 +5,8 @@ from setuptools import find_packages, setup
 
 package_name = "rotor_avc"
 
-NODES = ["plant_simulator", "foot_controller", "synchronous_controller", "balancer", "recorder"]   # rotor_avc/nodes
+NODES = ["plant_simulator", "foot_controller", "synchronous_controller", "harmonic_controller",
+         "balancer", "recorder"]   # rotor_avc/nodes
 
 setup(
     name=package_name,

@@ -14,6 +14,8 @@ protocol             ``step`` signature                          implemented by
 :class:`Controller`  ``step(signal) -> force_n`` (float)         ``control.block.DigitalController``
 :class:`Synchronous` ``step(angle_rad, speed_rad_s) -> forces``  ``control.synchronous.
                      (array, actuator order)                     SynchronousForceGenerator``
+:class:`Harmonic`    ``step(signals, angle_rad, speed_rad_s)     ``harmonic.block.
+                     -> forces`` (list, actuator order)          HarmonicController``
 :class:`Balancer`    ``step(LoopSample) -> {excitation:          ``balancing.loop_block.
                      amplitude}`` or None (keep the last one)    LoopBalancer``
 :class:`Estimator`   ``step(sample) -> BalancerOutput``          ``balancing.block.BalancerBlock``
@@ -76,11 +78,23 @@ class Controller(Block, Protocol):
 
 @runtime_checkable
 class Synchronous(Block, Protocol):
-    """Forces locked to the shaft angle (feed-forward, harmonic control) for ``actuator_ids``."""
+    """Forces locked to the shaft angle (feed-forward) for ``actuator_ids``."""
 
     actuator_ids: tuple[str, ...]
 
     def step(self, shaft_angle_rad: float, speed_rad_s: float) -> np.ndarray: ...
+
+
+@runtime_checkable
+class Harmonic(Block, Protocol):
+    """Adaptive harmonic control: forces locked to the shaft angle for ``actuator_ids`` whose
+    phasors adapt to the ``sensors``' signals (plain floats per sample, numpy per update)."""
+
+    actuator_ids: tuple[str, ...]
+    sensors: tuple[str, ...]
+    sample_period_s: float
+
+    def step(self, signals, shaft_angle_rad: float, speed_rad_s: float) -> list[float]: ...
 
 
 @runtime_checkable

@@ -28,7 +28,7 @@ CAPABILITIES = ("feedforward", "plane_balancer", "rigid_balancer")
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``
 COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analysis",
-               "simulation", "balancer")
+               "simulation", "balancer", "harmonic")
 
 #: per-foot keys the digital controller reads (rotor_avc.control); allowed next to G_c(s)
 RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",

@@ -17,6 +17,7 @@ A scenario file includes a machine config (``include: foot_mount_case3.yaml``) a
       test_signal: {actuator: DL, kind: white, rms_n: 200.0, band_hz: [2.0, 400.0], seed: 1}
                                     # optional broadband force for FRFs (rotor_avc.sim.broadband)
       balancer: false               # run the config's `balancer:` (rotor_avc.balancing.loop_block)
+      harmonic: false               # run the config's `harmonic:` (rotor_avc.harmonic.config)
 
 The section is declared in :class:`rotor_avc.settings.SimulationSettings`. Checks (each a
 :class:`~rotor_avc.errors.ConfigError` naming the field and the fix): a positive
@@ -62,6 +63,7 @@ class Scenario:
     #: played by a 1x generator for the run's unbalance), or None
     feedforward_method: str | None = None
     test_force: BroadbandForce | None = None
+    use_harmonic: bool = False
 
     @property
     def n_steps(self) -> int:
@@ -107,11 +109,20 @@ class Scenario:
             return []
         return [a.id for a in self.machine.plant.actuators]
 
-    def run(self, progress: bool | None = None, balancer=None) -> TimeSeries:
+    def harmonic(self):
+        """The run's adaptive harmonic controller (``simulation.harmonic: true``), or None."""
+        if not self.use_harmonic:
+            return None
+        from .harmonic.config import harmonic_from_config
+        return harmonic_from_config(self.machine, self.sample_period_s,
+                                    self.profile.max_speed_rad_s, self.damping.whirl_rad_s)
+
+    def run(self, progress: bool | None = None, balancer=None, harmonic=None) -> TimeSeries:
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
+        harmonic = self.harmonic() if harmonic is None else harmonic
         return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
-                        feedforward=self.feedforward(),
+                        feedforward=self.feedforward(), harmonic=harmonic,
                         initial_state=self.initial_state, progress=progress, metadata=meta)
 
 
@@ -190,13 +201,17 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     if s.balancer and not cfg.has("balancer"):
         raise sim.error("balancer", "true, but the config has no `balancer:` section",
                         fix="include a balancer config (e.g. balancer_foot_mount.yaml)")
+    if s.harmonic and not cfg.has("harmonic"):
+        raise sim.error("harmonic", "true, but the config has no `harmonic:` section",
+                        fix="add a `harmonic:` section (e.g. include harmonic_bearings.yaml)")
     test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
             if s.test_signal is not None else None)
     return Scenario(
         machine=machine, sample_period_s=1.0 / fs, duration_s=duration, profile=profile,
         amplitudes=_amplitudes(machine, sim.section("unbalance", {})), damping=damping,
         initial_state=s.initial_state, grid_tol=s.speed_grid_tol, use_balancer=s.balancer,
-        feedforward_method=_feedforward_method(machine, sim, s), test_force=test)
+        feedforward_method=_feedforward_method(machine, sim, s), test_force=test,
+        use_harmonic=s.harmonic)
 
 
 def _feedforward_method(machine: Machine, sim, s: SimulationSettings) -> str | None:

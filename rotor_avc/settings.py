@@ -206,6 +206,8 @@ class SimulationSettings:
     speed_grid_tol: float = setting(DEFAULT_GRID_TOL, "accuracy of the variable-speed plant",
                                     positive=True, maximum=0.1)
     balancer: bool = setting(False, "run the config's `balancer:` in the loop")
+    harmonic: bool = setting(False, "run the config's `harmonic:` (adaptive harmonic control) in "
+                             "the loop")
     feedforward: FeedforwardRun | None = setting(None, "seed 002's 1x feed-forward")
     test_signal: dict | None = setting(None, "broadband test force: actuator, kind (white or "
                                        "chirp), rms_n, band_hz, seed, sweep_s "

@@ -6,6 +6,8 @@ import pytest
 from rotor_avc import blocks
 from rotor_avc.control.synchronous import SynchronousForceGenerator
 from rotor_avc.errors import ModelError
+from rotor_avc.harmonic.block import HarmonicController, HarmonicSettings
+from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.scenario import load_scenario
 
 TWO_PI = 2 * np.pi
@@ -27,6 +29,7 @@ def test_every_block_implements_its_protocol(case3, balanced):
     assert isinstance(case3.stepper(), blocks.Plant)
     assert all(isinstance(c, blocks.Controller) for c in case3.controllers().values())
     assert isinstance(generator, blocks.Synchronous)
+    assert isinstance(harmonic_block(), blocks.Harmonic)
     assert isinstance(loop_balancer, blocks.Balancer)
     assert isinstance(loop_balancer.block, blocks.Estimator)
 
@@ -86,3 +89,31 @@ def test_synchronous_generator_resumes_from_its_state():
     assert not gen.in_range and not np.any(out)
     gen.set_state(snapshot)
     assert gen.in_range and np.array_equal(gen.force_n, snapshot["force_n"])
+
+
+def harmonic_block(speed=2 * np.pi * 11.3):
+    """A 2-sensor, 2-actuator 1x + 2x controller on a fixed influence matrix, identifying it."""
+    G = np.array([[1.0 + 0.5j, -0.3j], [0.2, 0.8 - 0.1j]])
+    sched = InfluenceSchedule(np.array([0.5 * speed, 2 * speed]), (1, 2),
+                              np.stack([np.stack([G, 0.5 * G])] * 2), ("a", "b"), ("x", "y"))
+    return HarmonicController(sched, 1e-3, HarmonicSettings(gain=0.5, min_speed_hz=1,
+                                                            identify=True, dither_n=0.1))
+
+
+def test_harmonic_controller_resumes_from_its_state():
+    speed, T = 2 * np.pi * 11.3, 1e-3
+    rng = np.random.default_rng(5)
+    signals = rng.standard_normal((1200, 2)) + np.cos(speed * T * np.arange(1200))[:, None]
+    ref, twin = harmonic_block(), harmonic_block()
+    for k in range(600):
+        ref.step(list(signals[k]), speed * k * T % TWO_PI, speed)
+        twin.step([0.0, 0.0], speed * k * T % TWO_PI, speed)       # same samples, other state
+    assert ref.n_updates > 2 and not np.array_equal(ref.U, twin.U)
+    twin.set_state(ref.state)
+    for k in range(600, 1200):
+        angle = speed * k * T % TWO_PI
+        assert twin.step(list(signals[k]), angle, speed) == ref.step(list(signals[k]), angle,
+                                                                      speed)
+    assert np.array_equal(twin.U, ref.U) and np.array_equal(twin.D, ref.D)
+    with pytest.raises(ModelError, match="does not fit"):
+        twin.set_state({**ref.state, "U": ref.U[:1]})

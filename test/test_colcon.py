@@ -22,7 +22,7 @@ from ros_helpers import wait_for_nodes  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 #: the node list setup.py installs (read, not imported: importing setup.py would run setup())
 NODES = ast.literal_eval(re.search(r"^NODES = (\[.*?\])", (ROOT / "setup.py").read_text(),
-                                   re.M).group(1))
+                                   re.M | re.S).group(1))
 
 pytestmark = pytest.mark.ros
 
@@ -31,6 +31,7 @@ NODE_ARGS = {
     "foot_controller": ["-p", "scenario:=scenario_case3_steady", "-p", "foot_id:=DL"],
     "balancer": ["-p", "scenario:=scenario_balance_runup"],
     "synchronous_controller": ["-p", "scenario:=scenario_active_bearing"],
+    "harmonic_controller": ["-p", "scenario:=scenario_harmonic_case2_steady"],
     "recorder": ["-p", "scenario:=scenario_case3_steady", "-p", "path:={tmp}/colcon.mcap"],
 }
 

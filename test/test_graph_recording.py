@@ -15,7 +15,7 @@ from ros_helpers import node_process, rclpy, stop  # noqa: F401
 from test_ros_graph import scenario_file
 
 from rotor_avc.bag import BagReader
-from rotor_avc.bag.sequence import check_sequence
+from rotor_avc.bag.sequence import SAMPLED, check_sequence
 from rotor_avc.cli import main
 from rotor_avc.config import find_config
 from rotor_avc.nodes.graph import run_graph
@@ -69,6 +69,35 @@ def test_graph_records_every_sample_under_contention(tmp_path, competitors, base
     run = run_graph(sc, tmp_path / "run.mcap", tmp_path / "logs", layout=layout, timeout_s=600)
     assert run.steps == load_scenario(sc).n_steps > 4000
     assert_recorded_like_in_process(run, sc, tmp_path)
+
+
+@pytest.mark.parametrize("layout", ["processes", "composed"])
+def test_graph_records_the_harmonic_controller(tmp_path, layout):
+    """Feedback + adaptive harmonic control (case 3, switched on at 0.1 s): the recorder
+    handshake covers ``harmonic/forces`` (one answer per sample, every message recorded), and
+    the plant's topics equal the in-process run's (the harmonic forces were applied alike)."""
+    path = tmp_path / "harmonic_short.yaml"
+    path.write_text(yaml.safe_dump({"include": str(find_config("scenario_harmonic_case3_steady")),
+                                    "harmonic": {"start_s": 0.1},
+                                    "simulation": {"duration_s": 0.5}}))
+    sc = str(path)
+    run = run_graph(sc, tmp_path / "run.mcap", tmp_path / "logs", layout=layout, timeout_s=600)
+    n = load_scenario(sc).n_steps
+    assert run.steps == n and run.lost() == {}
+    forces = next(t for t in run.counts if t.endswith("/harmonic/forces"))
+    assert run.counts[forces]["published"] == run.counts[forces]["recorded"] >= n
+    with BagReader(run.bag) as r:
+        report = check_sequence(r)
+    assert report.ok and report.samples == n, report.verdict()
+    assert SAMPLED.match(forces)                   # checked for gaps like the plant's topics
+    sim = tmp_path / "in_process.mcap"
+    assert main(["simulate", sc, "--out", str(sim)]) == 0
+    graph, loop = messages_by_topic(run.bag), messages_by_topic(sim)
+    assert len({t for t, _ in graph[forces]}) == n
+    plant_topics = [t for t in loop if not t.endswith("/actuator_force")]
+    assert len(plant_topics) >= 5
+    for topic in plant_topics:
+        assert graph[topic] == loop[topic], f"{topic} differs from the in-process loop's bag"
 
 
 def test_ros_params_file_runs_the_graph(tmp_path):

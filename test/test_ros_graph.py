@@ -223,3 +223,39 @@ def test_feedforward_node_in_lockstep_equals_in_process():
         scale = np.max(np.abs(values))
         assert np.max(np.abs(ts[ch] - values)) <= 1e-9 * max(scale, 1e-300), ch
     assert np.max(np.abs(ref["actuator_x2_fx"])) > 0 and not plant.fault_log
+
+
+@pytest.mark.parametrize("machine", ["foot_mount_case2", "foot_mount_case3"])
+def test_harmonic_node_in_lockstep_equals_in_process(tmp_path, machine):
+    """The harmonic_controller node (bearing-housing 1x, 50 Hz, updates every revolution from
+    the start) alone (case 2) and beside the foot controllers (case 3): bit for bit the
+    in-process loop with the same block."""
+    from rotor_avc.config import find_config
+    from rotor_avc.nodes.harmonic_controller import HarmonicControllerNode
+    path = tmp_path / f"harmonic_{machine}.yaml"
+    path.write_text(f"""include: [{find_config(machine)}, {find_config('harmonic_bearings')}]
+harmonic: {{min_speed_hz: 40.0}}
+simulation:
+  sample_rate_hz: 5000.0
+  duration_s: 0.2
+  speed: {{type: constant, speed_hz: 50.0}}
+  unbalance: {{static: {{magnitude: 1.0e-2, phase_deg: 0.0}}}}
+  initial_state: steady_state
+  harmonic: true
+""")
+    scenario = str(path)
+    sc = load_scenario(scenario)
+    feet = tuple(sc.machine.controllers)
+    plant = PlantSimulator("plant_h", parameter_overrides=params(scenario=scenario, harmonic=True))
+    nodes = [HarmonicControllerNode("harmonic_controller", parameter_overrides=params(
+        scenario=scenario))] + [FootController(f"foot_controller_{f}", parameter_overrides=params(
+            scenario=scenario, foot_id=f)) for f in feet]
+    run_to_end(plant, nodes)
+    ts = plant.result()
+    block = sc.harmonic()
+    ref = run_loop(sc.stepper(), sc.controllers(), plant.n_steps, harmonic=block,
+                   initial_state=sc.initial_state, progress=False)
+    for ch, values in ref.channels.items():
+        assert np.array_equal(ts[ch], values), ch
+    assert block.n_updates >= 9 and np.max(np.abs(ref["actuator_DL_fz"])) > 0
+    assert not plant.fault_log

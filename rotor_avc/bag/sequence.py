@@ -2,8 +2,9 @@
 
 A run of the plant publishes one message per sample ``t_k = k T`` on each of its *sampled
 topics* -- the foot measurements, ``rotor/joint_state``, ``/clock``, ``plant/observables``,
-``plant/test_signal`` -- and each controller and the balancer answer every sample
-(``foot/<id>/actuator_force``, ``balancer/command``), stamped ``t_k``; the bag logs every
+``plant/test_signal`` -- and each controller, the harmonic controller and the balancer answer
+every sample (``foot/<id>/actuator_force``, ``harmonic/forces``, ``balancer/command``), stamped
+``t_k``; the bag logs every
 message at its stamp. So, per sampled topic, the log times must be exactly ``0, T, ..., (n-1) T``
 (a sample published twice, as the lockstep plant resends an unanswered one, is counted as
 repeated, not as an error), every sampled topic must hold the same samples, and the messages
@@ -27,7 +28,7 @@ from .reader import BagReader
 #: sampled topics, relative to the namespace (rotor_avc.bag.topics)
 SAMPLED = re.compile(r"^(/[^/]+/)?(foot/[^/]+/(acceleration|velocity|displacement|"
                      r"actuator_force)|rotor/joint_state|plant/observables|plant/test_signal|"
-                     r"balancer/command)$|^/clock$")
+                     r"harmonic/forces|balancer/command)$|^/clock$")
 #: at most this many missing ranges are listed per topic
 RANGES_SHOWN = 5
 #: exit status of a command refusing a bag with missing samples (0 pass, 1 fail, 2 unreadable)

@@ -17,6 +17,10 @@ Namespace ``/<machine>``, default ``/avc``; all types are standard ROS 2 message
 * ``/avc/balancer/estimate`` and ``/avc/balancer/command`` -- std_msgs/msg/Float64MultiArray,
   labelled ``time_s``, ``<excitation>_re``, ``<excitation>_im``: the estimated unbalance and the
   correction command as complex amplitudes (kg m, kg m^2);
+* ``/avc/harmonic/forces`` -- std_msgs/msg/Float64MultiArray, labelled ``time_s``,
+  ``<actuator>_f<axis>``: the adaptive harmonic controller's forces (N), added by the plant to
+  the feedback forces; ``/avc/harmonic/status`` (after each update): ``time_s``, ``mode``,
+  ``updates``, ``E<h>_<sensor>`` and ``U<h>_<actuator>`` (error and force phasor magnitudes);
 * ``/clock`` -- rosgraph_msgs/msg/Clock: the sim time (lockstep mode);
 * ``/diagnostics`` -- diagnostic_msgs/msg/DiagnosticArray: node status and timing.
 
@@ -51,6 +55,8 @@ TOPIC_TYPES = {
     "plant/observables": "std_msgs/msg/Float64MultiArray",
     "balancer/estimate": "std_msgs/msg/Float64MultiArray",
     "balancer/command": "std_msgs/msg/Float64MultiArray",
+    "harmonic/forces": "std_msgs/msg/Float64MultiArray",
+    "harmonic/status": "std_msgs/msg/Float64MultiArray",
     "/clock": "rosgraph_msgs/msg/Clock",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }

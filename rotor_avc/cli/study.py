@@ -9,21 +9,26 @@ import numpy as np
 from ..analysis.gain_study import DEFAULT_SWEEP, GainStudy, gain_study
 from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
-from ..errors import ConfigError
+from ..errors import ConfigError, ModelError
 from ..machine import load_machine
 from ..reports.gain_study_files import write_gain_study
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
         "response over speed per gain, the resonance speeds and reductions versus gain and the "
-        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13.")
+        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13; or `study strategies "
+        "SCENARIO`: no control, feedback, harmonic control (each law), combinations, compared.")
 EXAMPLE = ("rotor-avc study sleeve_bearing_motor --feedback velocity --gains 1e4:1e6:20 "
            "--out out/study")
 
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name "
-                                  "(sleeve_bearing_motor); its controllers are replaced")
+                                  "(sleeve_bearing_motor); its controllers are replaced -- or "
+                                  "the word `strategies` followed by a scenario")
+    p.add_argument("scenario", nargs="?",
+                   help="with `strategies`: a scenario with a `harmonic:` section "
+                        "(scenario_harmonic_case3_steady)")
     p.add_argument("--feedback", choices=list(FEEDBACK_ORDER), action="append",
                    help="feedback kind (repeatable; default: every kind in the config's "
                         "analysis.study.gains)")
@@ -53,7 +58,40 @@ def _fixed(items: list[str]) -> dict[str, float]:
     return out
 
 
+def run_strategies(args) -> int:
+    """``rotor-avc study strategies SCENARIO``: the strategy comparison and its report."""
+    from ..config import load_config
+    from ..harmonic.strategy_study import strategy_study
+    from ..scenario import scenario_from_config
+    from ..reports.strategy_report import rows, write_report
+    if not args.scenario:
+        raise ConfigError("scenario", "missing after `strategies`",
+                          fix="e.g. rotor-avc study strategies scenario_harmonic_case3_steady")
+    cfg = load_config(args.scenario)
+    try:
+        results, sensors = strategy_study(cfg.data, scenario_from_config, cfg.source)
+    except ModelError as exc:
+        raise ConfigError("harmonic", str(exc), source=cfg.source) from None
+    out = args.out if args.out != Path("out/study") else Path("out/strategies")
+    path = write_report(results, sensors, out, cfg.source, plot=not args.no_plots)
+    head, body = rows(results, sensors)
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
+    for line in [head, *body]:
+        print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)))
+    for r in results:
+        if r.peak_reduction_db:
+            print(f"{r.name}: 1x peak reduction " + ", ".join(
+                f"{n} {f:.1f} Hz {v:.1f} dB" for (n, f), v in r.peak_reduction_db.items()))
+    print(f"report: {path}")
+    return 0
+
+
 def run(args) -> int:
+    if args.config == "strategies":
+        return run_strategies(args)
+    if args.scenario:
+        raise ConfigError("scenario", f"unexpected second argument {args.scenario!r}",
+                          fix="give one machine config, or `strategies SCENARIO`")
     machine = load_machine(args.config)
     study_cfg = machine.analysis.study
     sec = machine.config.section("analysis", {}).section("study", {})

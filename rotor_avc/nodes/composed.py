@@ -4,7 +4,8 @@
 path:=bags/run.mcap`` builds the nodes of the scenario the way rotor_avc.nodes.graph starts them
 as processes, with the same parameters, composed like the nodes of a ROS 2 component container:
 the recorder first, taking every message from the nodes' publishers (``source: process``), then
-the feedback controllers, the feed-forward node and the balancer when the scenario has them, and
+the feedback controllers, the feed-forward node, the harmonic controller and the balancer when
+the scenario has them, and
 the plant in lockstep with ``wait_for_recorder``. The nodes talk through DDS as in separate
 processes (any other node of the domain sees the same traffic); the run just needs no round trip
 between processes. Ends when the plant's run ends, with the plant's exit status; SIGINT/SIGTERM
@@ -29,6 +30,7 @@ def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = 
     ``nodes`` as they are built (so a failure half-way leaves the built ones to be closed)."""
     from .balancer import Balancer
     from .foot_controller import FootController
+    from .harmonic_controller import HarmonicControllerNode
     from .plant_simulator import PlantSimulator
     from .recorder import Recorder
     from .synchronous_controller import SynchronousController
@@ -44,12 +46,15 @@ def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = 
     if scenario.feedforward_actuators():
         nodes.append(SynchronousController("synchronous_controller", parameter_overrides=params(
             scenario=scenario_name, executor=executor)))
+    if scenario.use_harmonic:
+        nodes.append(HarmonicControllerNode("harmonic_controller", parameter_overrides=params(
+            scenario=scenario_name, executor=executor)))
     if scenario.use_balancer:
         nodes.append(Balancer("balancer", parameter_overrides=params(
             scenario=scenario_name, executor=executor)))
     nodes.append(PlantSimulator("plant_simulator", parameter_overrides=params(
         scenario=scenario_name, wait_for_recorder="recorder", balancer=scenario.use_balancer,
-        executor=executor, **(plant_params or {}))))
+        harmonic=scenario.use_harmonic, executor=executor, **(plant_params or {}))))
     return nodes
 
 

@@ -4,7 +4,8 @@ Two layouts of the same nodes:
 
 * **processes** (default): one process per node, as ``ros2 run`` would start them -- the
   recorder, one ``foot_controller`` per controlled foot, the ``synchronous_controller`` for a
-  feed-forward scenario, the ``balancer`` when the scenario has one, and the ``plant_simulator``
+  feed-forward scenario, the ``harmonic_controller`` for ``simulation.harmonic``, the
+  ``balancer`` when the scenario has one, and the ``plant_simulator``
   in lockstep with ``wait_for_recorder``;
 * **composed**: all of them in one process and one executor (:func:`run_composed`, like a ROS 2
   component container), the recorder taking the nodes' messages from their publishers
@@ -98,6 +99,9 @@ def node_commands(scenario, bag: Path, layout: str = "processes",
         cmds["synchronous_controller"] = _node("synchronous_controller",
                                                "synchronous_controller", common)
     plant_args = common + ["-p", "wait_for_recorder:=recorder"]
+    if scenario.use_harmonic:
+        cmds["harmonic_controller"] = _node("harmonic_controller", "harmonic_controller", common)
+        plant_args += ["-p", "harmonic:=true"]
     if scenario.use_balancer:
         cmds["balancer"] = _node("balancer", "balancer", common)
         plant_args += ["-p", "balancer:=true"]

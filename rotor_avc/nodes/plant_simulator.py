@@ -9,7 +9,8 @@ reproduces ``rotor-avc simulate`` exactly.
 
 * **lockstep** (default): publishes sample ``k`` (foot measurements, ``rotor/joint_state``,
   ``plant/observables``, ``/clock`` = ``t_k``) and steps when every controller of the scenario
-  (and the balancer, with ``balancer: true``) has answered ``t_k``
+  (and the balancer, with ``balancer: true``, and the harmonic controller, with
+  ``harmonic: true``: its forces add to the feedback forces) has answered ``t_k``
   (:class:`rotor_avc.nodes.lockstep.AnswerBook`: resend, timeout, fault policy).
 * **realtime**: steps on a wall-clock timer at the sample period with the latest forces received;
   a controller silent for longer than ``controller_timeout_s`` gets the fault policy.
@@ -54,6 +55,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..errors import RotorAvcError
 from ..sim.loop import forces_from_answers, start, timeseries_from_run
 from . import messages as m
 from . import taps
@@ -83,6 +85,8 @@ PARAMS = COMMON_PARAMS + (
           "recorder) to connect",
           minimum=0.0, maximum=3600.0),
     Param("balancer", False, "lockstep: also wait for the balancer's command at every sample"),
+    Param("harmonic", False, "lockstep: also wait for the harmonic controller's forces "
+          "(harmonic/forces, added to the feedback forces) at every sample"),
     Param("result_path", "", "save the run's time series here at the end (.npz or .mcap)"),
     Param("exit_when_done", True, "end the node when the run is complete"),
     Param("wait_for_recorder", "", "name of a recorder node that must subscribe to every topic "
@@ -140,7 +144,11 @@ class PlantSimulator(Node):
         self.pub_obs = taps.publisher(self, Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
-        responders = self.driven + (("balancer",) if self.p["balancer"] else ())
+        responders = (self.driven + (("balancer",) if self.p["balancer"] else ())
+                      + (("harmonic",) if self.p["harmonic"] else ()))
+        self._setup_harmonic(sc, ns)
+        ids = [a.id for a in plant.actuators]
+        self._fed = {ids.index(a) for a in self.driven}
         self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
                                self.p["resend_after_s"])
         self.force_topics = {foot: m.foot_topic(foot, "actuator_force", ns) for foot in self.driven}
@@ -161,6 +169,8 @@ class PlantSimulator(Node):
         self.received = {m.foot_topic(f, "actuator_force", ns): 0 for f in self.driven}
         if self.p["balancer"]:
             self.received[m.topic("balancer/command", ns)] = 0
+        if self.p["harmonic"]:
+            self.received[self.harmonic_topic] = 0
         self.allowance = self.p["recorder_window"]
         self.stalled_since = None            # wall time the plant began waiting for the recorder
         self.recorder_lagging = False        # lockstep: a sample is held back for the recorder
@@ -190,6 +200,39 @@ class PlantSimulator(Node):
         if self.p["mode"] == "realtime":
             self.create_timer(min(self.T, 1e-3), self._tick_realtime)
 
+    def _setup_harmonic(self, sc, ns: str) -> None:
+        """``harmonic: true``: the harmonic controller's forces (added to the others)."""
+        self.harmonic_at = []
+        self.harmonic_topic = m.topic("harmonic/forces", ns)
+        if not self.p["harmonic"]:
+            return
+        if self.p["mode"] == "realtime":
+            raise RotorAvcError(f"{self.get_name()}: harmonic: true runs in lockstep only "
+                                "-- fix: use mode lockstep")
+        from ..harmonic.config import harmonic_actuators
+        from .harmonic_controller import force_names
+        acts = harmonic_actuators(sc.machine)
+        ids = [a.id for a in self.stepper.plant.actuators]
+        self.harmonic_at = [ids.index(a) for a in acts]
+        self.harmonic_label = ",".join(["time_s"] + force_names(self.stepper.plant, acts))
+        self.create_subscription(Float64MultiArray, self.harmonic_topic, self._on_harmonic,
+                                 m.LOCKSTEP_QOS, raw=True)
+
+    def _on_harmonic(self, data: bytes) -> None:
+        try:
+            label, values = m.labelled_array(data)
+            if label != self.harmonic_label or not all(map(math.isfinite, values)):
+                raise m.MessageError(f"labelled {label!r} (expected {self.harmonic_label!r}) "
+                                     "or not finite")
+            stamp = m.received_time_ns(values[0])
+        except m.MessageError as exc:
+            self._fault(f"harmonic forces ignored: {exc}")
+            return
+        self.received[self.harmonic_topic] += 1
+        if self.started and not self.finished and self.book.receive("harmonic", stamp,
+                                                                    values[1:]):
+            self._advance()
+
     # -- start ----------------------------------------------------------------------------------
     def _connected(self) -> bool:
         ns = self.p["namespace"]
@@ -203,6 +246,10 @@ class PlantSimulator(Node):
             return False
         if len(self.driven) > len(self.feedback) and self.pub_joint.get_subscription_count() < 1:
             return False                       # the feed-forward node answers joint_state
+        if self.p["harmonic"] and (self.count_publishers(self.harmonic_topic) < 1
+                                   or self.pub_obs.get_subscription_count() < 1
+                                   or self.pub_joint.get_subscription_count() < 1):
+            return False
         return not self._unrecorded()
 
     def _unrecorded(self) -> list[str]:
@@ -217,6 +264,8 @@ class PlantSimulator(Node):
         others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.driven]
         if self.p["balancer"]:
             others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
+        if self.p["harmonic"]:
+            others += [self.harmonic_topic, m.topic("harmonic/status", ns)]
         missing = []
         if self.count_publishers(self.progress_topic) < 1:
             return ["(no recorder progress yet)"]
@@ -360,8 +409,13 @@ class PlantSimulator(Node):
             self._advance()
 
     def _forces(self) -> np.ndarray:
-        return forces_from_answers(self.stepper, {foot: self.book.value(foot, 0.0)
-                                                  for foot in self.driven})
+        u = forces_from_answers(self.stepper, {foot: self.book.value(foot, 0.0)
+                                               for foot in self.driven})
+        if self.harmonic_at:               # as rotor_avc.sim.loop.harmonic_forces adds them
+            for pos, f in zip(self.harmonic_at, self.book.value("harmonic", None) or
+                              [0.0] * len(self.harmonic_at)):
+                u[pos] = u[pos] + f if pos in self._fed else f
+        return u
 
     def _advance(self) -> None:
         """All answers of sample k are in: record, hold u_k, step to k+1, publish it."""

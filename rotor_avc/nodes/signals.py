@@ -27,8 +27,8 @@ import sys
 from pathlib import Path
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
-NODE_NAMES = ("plant_simulator", "foot_controller", "synchronous_controller", "balancer",
-              "recorder")
+NODE_NAMES = ("plant_simulator", "foot_controller", "synchronous_controller",
+              "harmonic_controller", "balancer", "recorder")
 
 
 class Stop(BaseException):

@@ -11,8 +11,10 @@ The blocks follow the protocols of :mod:`rotor_avc.blocks`: controllers
 (:class:`~rotor_avc.blocks.Controller`: ``feedback``, ``step(signal) -> force_n``), the balancer
 (:class:`~rotor_avc.blocks.Balancer`: ``step(sample: LoopSample)`` -> the correction amplitude
 per excitation name, ``{"static": u_e, "moment": u_alpha}``, replacing the previous one, or None
-to keep it; the stepper applies it from the next step on) and the feed-forward generator
-(:class:`~rotor_avc.blocks.Synchronous`).
+to keep it; the stepper applies it from the next step on), the feed-forward generator
+(:class:`~rotor_avc.blocks.Synchronous`) and the adaptive harmonic controller
+(:class:`~rotor_avc.blocks.Harmonic`: its sensor signals, the shaft angle and speed -> forces
+added to the feedback forces).
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from typing import Mapping
 import numpy as np
 
 from .. import __version__
-from ..blocks import Balancer, LoopSample, Synchronous
+from ..blocks import Balancer, Harmonic, LoopSample, Synchronous
 from ..errors import ModelError
 from ..settings import INITIAL_STATES
 from .steady_state import start_in_steady_state
@@ -70,6 +72,34 @@ def feedforward_positions(stepper: PlantStepper, controllers: Mapping, feedforwa
     if missing:
         raise ModelError(f"feed-forward actuators {missing} are not the plant's ({', '.join(ids)})")
     return [ids.index(a) for a in feedforward.actuator_ids]
+
+
+def harmonic_plan(stepper: PlantStepper, controllers: Mapping, harmonic: Harmonic | None,
+                  ff_pos=()):
+    """``(signal indices in y, [(force position, added to another block's force?)])`` of a
+    harmonic controller block (:class:`~rotor_avc.blocks.Harmonic`), or None without one."""
+    if harmonic is None:
+        return None
+    ids = [a.id for a in stepper.plant.actuators]
+    missing = [a for a in harmonic.actuator_ids if a not in ids]
+    if missing:
+        raise ModelError(f"harmonic actuators {missing} are not the plant's ({', '.join(ids)})")
+    if abs(harmonic.sample_period_s - stepper.T) > 1e-12 * stepper.T:
+        raise ModelError("the harmonic controller and the plant must share one sample rate")
+    return ([stepper.layout.index(name) for name in harmonic.sensors],
+            [(ids.index(a), a in controllers or ids.index(a) in ff_pos)
+             for a in harmonic.actuator_ids])
+
+
+def harmonic_forces(stepper: PlantStepper, harmonic: Harmonic, plan, y: np.ndarray,
+                    forces: np.ndarray) -> None:
+    """Step the harmonic block on its signals in ``y_k``; add its forces to ``forces`` (to the
+    feedback or feed-forward force where the actuator has one)."""
+    item = y.item
+    speed, _, angle = stepper.speed_state()
+    out = harmonic.step([item(i) for i in plan[0]], angle, speed)
+    for (pos, add), f in zip(plan[1], out):
+        forces[pos] = forces[pos] + f if add else f
 
 
 def forces_from_answers(stepper: PlantStepper, answers: Mapping[str, float]) -> np.ndarray:
@@ -133,6 +163,7 @@ class Progress:
 
 def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
              balancer: Balancer | None = None, feedforward: Synchronous | None = None,
+             harmonic: Harmonic | None = None,
              initial_state: str = "rest", progress: bool | None = None,
              metadata: dict | None = None) -> TimeSeries:
     """Run ``n_steps`` samples of the lockstep loop from ``t = 0``; return the time series.
@@ -140,11 +171,16 @@ def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
     ``feedforward``: a synchronous force generator (rotor_avc.control.synchronous) whose forces
     drive its actuators (which then have no feedback controller), from the shaft angle and speed
     at ``t_k``.
+    ``harmonic``: an adaptive harmonic controller block (rotor_avc.harmonic.block) whose forces
+    add to those of the feedback controllers (:func:`harmonic_forces`).
     ``progress``: True/False, or None for "when stderr is a terminal and the run is long"."""
     if not isinstance(n_steps, int) or n_steps < 1:
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
     plan = control_plan(stepper, controllers)
     ff_pos = feedforward_positions(stepper, controllers, feedforward)
+    h_plan = harmonic_plan(stepper, controllers, harmonic, ff_pos)
+    if harmonic is not None:
+        harmonic.reset()
     if feedforward is not None:
         feedforward.reset()
     if progress is None:
@@ -162,6 +198,8 @@ def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         if feedforward is not None:
             speed, _, angle = stepper.speed_state()
             u[ff_pos] = feedforward.step(angle, speed)
+        if h_plan is not None:
+            harmonic_forces(stepper, harmonic, h_plan, y, u)
         U[k] = u
         if balancer is not None:
             balancer_update(stepper, balancer, k, y)
@@ -170,7 +208,10 @@ def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         if not k & 0x3FFF:
             bar.update(k)
     bar.update(n_steps, final=True)
-    return timeseries_from_run(stepper, Y, U, C, metadata or {}, initial_state, controllers)
+    meta = dict(metadata or {})
+    if harmonic is not None:
+        meta["harmonic"] = {"controller": harmonic.describe(), "status": harmonic.status}
+    return timeseries_from_run(stepper, Y, U, C, meta, initial_state, controllers)
 
 
 def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) -> TimeSeries:

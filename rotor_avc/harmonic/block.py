@@ -1,0 +1,410 @@
+"""The adaptive harmonic controller block: actuator forces locked to the shaft angle.
+
+At sample ``k`` (DESIGN.md section 3) the block takes the sensor signals ``e_k`` (M), the shaft
+angle ``theta_k`` and speed ``Omega_k``, and returns the forces (N actuators) to hold over
+``[t_k, t_k+1)``::
+
+    u_k = sum_h Re{A_h e^{j h theta_k}},     A_h = U_h + D_h     (D: identification dither)
+
+It demodulates the signals over an update window (one revolution, or ``update_every_samples``)::
+
+    E_h = 2 sum_k e_k e^{-j h theta_k} w_k / sum_k w_k,     w_k = Omega_k T
+
+(angle weighting: an exact Fourier coefficient over a revolution whatever the speed does), and at
+the window's last sample updates the phasors by the law of :mod:`rotor_avc.harmonic.laws` with
+the influence estimate ``G^_h(Omega)`` = speed schedule (:mod:`.influence`) + the online
+correction (:mod:`.identification`), before answering that sample. The dither's own response
+``G^ D`` is removed from ``E`` before the law acts.
+
+Adapting in the excitations (``adapt_in: excitations``, 1x): the law acts on an estimate ``C``
+of the plant's synchronous excitation amplitudes (the unbalance) instead of on ``U``: with the
+disturbance model ``H(Omega)`` (sensor response per unit excitation) the phasors are
+``U = -pinv(G^) H C``, leaving ``E = K (C_true - C)`` with ``K = G^ pinv(G^) H``, and the law of
+:mod:`.laws` runs on ``K``. At a constant speed this is the same loop (for ``K`` invertible,
+``U+ = U - mu pinv(G^) E``, Newton), but the estimate is speed-invariant: during a run-up the
+phasors follow the scheduled ``G`` and ``H`` through every resonance (recomputed every
+``refresh_samples`` samples), instead of having to be re-learnt -- the seed-004 balancer plane
+(an RLS estimate of the unbalance) and the seed-002 quantified force, in harmonic form.
+
+Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` is kept within
+``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by
+scaling the stored phasors themselves, so the adaptation never winds up beyond the limit.
+
+Safe fallback: the loop is taken to diverge when ``|E| / Omega^2`` exceeds ``divergence_factor``
+times its value at switch-on (an unbalance response grows with ``Omega^2``; the default 100
+leaves room for a resonance's amplification during a run-up), and the estimate to be poor when
+the identification's prediction residual stays above ``poor_residual`` for ``patience`` updates; then the block stops adapting and either
+holds its phasors (``freeze``) or fades them out over about ``fade_updates`` updates (``fade``),
+and reports it in :attr:`status` until :meth:`reset`.
+
+The block is off (zero force, no adaptation) before ``start_s``, below ``min_speed_hz`` and
+outside the influence schedule; switching on starts from zero phasors. Per sample it is plain
+Python floats; numpy runs once per update.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from .identification import InfluenceRls
+from .influence import InfluenceSchedule
+from .laws import check_law, update_matrices
+
+FALLBACKS = ("freeze", "fade")
+ADAPT_IN = ("forces", "excitations")
+MODES = ("off", "adapting", "frozen", "fading")
+TWO_PI = 2 * math.pi
+
+
+@dataclass(frozen=True)
+class HarmonicSettings:
+    """The controller's settings (the config keys of :mod:`rotor_avc.harmonic.config`)."""
+
+    law: str = "newton"
+    gain: float = 0.5
+    adapt_in: str = "forces"
+    refresh_samples: int = 0
+    #: optional gain schedule: the gain of the nearest (log-speed) node replaces ``gain``
+    gain_speeds_rad_s: tuple[float, ...] = ()
+    gain_values: tuple[float, ...] = ()
+    effort_weight: float = 0.0
+    leakage: float = 0.0
+    sensor_weights: tuple[float, ...] | None = None
+    update_every_samples: int = 0                 # 0: once per revolution
+    force_limit_n: float = math.inf
+    rate_limit_n_per_s: float = math.inf
+    min_speed_hz: float = 2.0
+    start_s: float = 0.0
+    identify: bool = False
+    forgetting: float = 0.98
+    dither_n: float = 0.0
+    min_change_n: float = 1e-3
+    min_rel_change: float = 0.1
+    seed: int = 0
+    fallback: str = "freeze"
+    divergence_factor: float = 100.0
+    poor_residual: float = math.inf
+    patience: int = 3
+    fade_updates: int = 10
+
+    def check(self) -> None:
+        """ModelError naming the first setting out of range."""
+        check_law(self.law, self.gain, self.effort_weight, self.leakage)
+        if len(self.gain_speeds_rad_s) != len(self.gain_values) or any(
+                not (v > 0 and math.isfinite(v))
+                for v in self.gain_speeds_rad_s + self.gain_values):
+            raise ModelError("the gain schedule needs as many speeds as gains, all > 0")
+        if self.adapt_in not in ADAPT_IN:
+            raise ModelError(f"unknown adapt_in {self.adapt_in!r}; use one of {ADAPT_IN}")
+        if self.fallback not in FALLBACKS:
+            raise ModelError(f"unknown fallback {self.fallback!r}; use one of {FALLBACKS}")
+        for name in ("force_limit_n", "rate_limit_n_per_s", "divergence_factor", "min_change_n",
+                     "poor_residual"):
+            if not getattr(self, name) > 0:
+                raise ModelError(f"{name} must be > 0 (got {getattr(self, name)})")
+        if not (self.min_speed_hz > 0 and self.start_s >= 0 and self.dither_n >= 0):
+            raise ModelError("min_speed_hz must be > 0, start_s and dither_n >= 0")
+        if not 0 <= self.min_rel_change < 1:
+            raise ModelError(f"min_rel_change must lie in [0, 1) (got {self.min_rel_change})")
+        if not 0 < self.forgetting <= 1:
+            raise ModelError(f"forgetting must lie in (0, 1] (got {self.forgetting})")
+        for name in ("update_every_samples", "refresh_samples", "patience", "fade_updates",
+                     "seed"):
+            v = getattr(self, name)
+            low = 1 if name in ("patience", "fade_updates") else 0
+            if isinstance(v, bool) or not isinstance(v, int) or v < low:
+                raise ModelError(f"{name} must be an integer >= {low} (got {v!r})")
+
+
+class HarmonicController:
+    """``reset()`` / ``step(signals, angle, speed) -> forces`` (module docstring)."""
+
+    def __init__(self, schedule: InfluenceSchedule, sample_period_s: float,
+                 settings: HarmonicSettings = HarmonicSettings(), name: str = "harmonic"):
+        settings.check()
+        if not (math.isfinite(sample_period_s) and sample_period_s > 0):
+            raise ModelError(f"sample_period_s must be > 0 (got {sample_period_s})")
+        m, n = len(schedule.sensors), len(schedule.actuators)
+        if settings.sensor_weights is not None and len(settings.sensor_weights) != m:
+            raise ModelError(f"sensor_weights needs {m} entries, one per sensor")
+        if settings.adapt_in == "excitations" and (schedule.disturbance is None
+                                                   or schedule.harmonics != (1,)):
+            raise ModelError("adapt_in excitations needs the 1x harmonic alone and a schedule "
+                             "with the disturbance model")
+        self.schedule = schedule
+        self.settings = settings
+        self.name = name
+        self.sample_period_s = float(sample_period_s)
+        self.sensors = schedule.sensors
+        self.actuator_ids = schedule.actuators
+        self.harmonics = schedule.harmonics
+        self._hm = [(h, hi * m) for hi, h in enumerate(self.harmonics)]
+        self._shape = (len(self.harmonics), m, n)
+        self._min_speed = TWO_PI * settings.min_speed_hz
+        self._max_speed = float(schedule.speeds_rad_s[-1])
+        self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
+        self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
+        self._every = settings.update_every_samples
+        self.reset()
+
+    # -- state -------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Off, zero phasors, a fresh estimate and dither sequence, fallback cleared."""
+        H, m, n = self._shape
+        s = self.settings
+        self.k = 0
+        self.mode = "off"
+        self.reason = "not started"
+        self.U = np.zeros((H, n), complex)
+        self.D = np.zeros((H, n), complex)
+        self.E = np.zeros((H, m), complex)
+        self.C = np.zeros(len(self.schedule.excitations), complex)
+        self._since_refresh = 0
+        self.estimate = np.zeros((H, m, n), complex)
+        self.rls = [InfluenceRls(m, n, s.forgetting, s.min_change_n, s.min_rel_change)
+                    for _ in range(H)]
+        self._rng = np.random.default_rng(s.seed)
+        self._prev: tuple[np.ndarray, np.ndarray] | None = None
+        self._ref = None
+        self._poor = 0
+        self.n_updates = 0
+        self.saturated = False
+        self._clear_window()
+        self._set_outputs()
+
+    def _clear_window(self) -> None:
+        self._acc = [0.0] * (2 * self._shape[0] * self._shape[1])
+        self._span = 0.0
+        self._count = 0
+
+    def _set_outputs(self) -> None:
+        A = self.U + self.D
+        self._out = [(h, A[hi].real.tolist(), A[hi].imag.tolist())
+                     for hi, h in enumerate(self.harmonics)]
+        self._zero = [0.0] * self._shape[2]
+
+    @property
+    def state(self) -> dict:
+        """Everything the next steps depend on (arrays copied)."""
+        return {"k": self.k, "mode": self.mode, "reason": self.reason, "U": self.U.copy(),
+                "D": self.D.copy(), "E": self.E.copy(), "C": self.C.copy(), "acc": list(self._acc),
+                "span": self._span, "count": self._count, "ref": self._ref, "poor": self._poor,
+                "n_updates": self.n_updates,
+                "prev": None if self._prev is None else tuple(a.copy() for a in self._prev),
+                "rls": [(r.correction.copy(), r.covariance.copy(), r.residual, r.n_updates)
+                        for r in self.rls],
+                "rng": self._rng.bit_generator.state}
+
+    def set_state(self, state: dict) -> None:
+        """Restore a :attr:`state`."""
+        H, m, n = self._shape
+        U, D = np.asarray(state["U"], complex), np.asarray(state["D"], complex)
+        if U.shape != (H, n) or D.shape != (H, n) or len(state["acc"]) != 2 * H * m \
+                or state["mode"] not in MODES:
+            raise ModelError(f"harmonic state does not fit {H} harmonics x {m} sensors x "
+                             f"{n} actuators")
+        self.k, self.mode, self.reason = int(state["k"]), state["mode"], state["reason"]
+        self.U, self.D, self.E = U.copy(), D.copy(), np.asarray(state["E"], complex).copy()
+        self.C = np.asarray(state["C"], complex).copy()
+        self._acc, self._span, self._count = [float(v) for v in state["acc"]], \
+            float(state["span"]), int(state["count"])
+        self._ref, self._poor, self.n_updates = state["ref"], state["poor"], state["n_updates"]
+        self._prev = None if state["prev"] is None else tuple(a.copy() for a in state["prev"])
+        for r, (corr, cov, res, nu) in zip(self.rls, state["rls"]):
+            r.correction, r.covariance, r.residual, r.n_updates = corr.copy(), cov.copy(), res, nu
+        self._rng.bit_generator.state = state["rng"]
+        self._set_outputs()
+
+    @property
+    def status(self) -> dict:
+        """Mode, reason, error and force phasor magnitudes, estimate residuals (for reports,
+        the status topic and ``/diagnostics``)."""
+        return {"mode": self.mode, "reason": self.reason, "updates": self.n_updates,
+                "error_abs": np.abs(self.E).tolist(), "force_abs_n": np.abs(self.U).tolist(),
+                "saturated": self.saturated,
+                "residual": [r.residual for r in self.rls],
+                "excitation_estimate": {e: [c.real, c.imag] for e, c in
+                                        zip(self.schedule.excitations, self.C.tolist())}}
+
+    # -- stepping ----------------------------------------------------------------------------
+    def step(self, signals, angle: float, speed: float) -> list[float]:
+        """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
+        k = self.k
+        self.k = k + 1
+        if self.mode == "off" or not self._min_speed <= speed <= self._max_speed:
+            if not self._may_run(k, speed):
+                return self._zero
+        w = speed * self.sample_period_s
+        acc = self._acc
+        trig = []
+        for h, base in self._hm:
+            c = math.cos(h * angle)
+            s = math.sin(h * angle)
+            trig.append((c, s))
+            cw, sw = c * w, s * w
+            i = 2 * base
+            for v in signals:
+                acc[i] += v * cw
+                acc[i + 1] -= v * sw
+                i += 2
+        self._span += w
+        self._count += 1
+        every = self._every
+        if (self._count >= every) if every else (self._span >= TWO_PI):
+            self._update(signals)
+        elif self._refresh:
+            self._since_refresh += 1
+            if self._since_refresh >= self._refresh and self.mode == "adapting":
+                self._synthesise(speed)
+        if len(trig) == 1:
+            c, s = trig[0]
+            _, re, im = self._out[0]
+            return [a * c - b * s for a, b in zip(re, im)]
+        forces = list(self._zero)
+        for (c, s), (_, re, im) in zip(trig, self._out):
+            for j in range(len(forces)):
+                forces[j] += re[j] * c - im[j] * s
+        return forces
+
+    def _may_run(self, k: int, speed: float) -> bool:
+        """Switch on (from zero) or off at this sample; True while on."""
+        on = (k >= self._start_k and speed >= self._min_speed
+              and self.schedule.covers(speed))
+        if on and self.mode == "off":
+            self.mode, self.reason = "adapting", "switched on"
+            self._clear_window()
+        elif not on and self.mode != "off":
+            self.U[:] = 0.0
+            self.D[:] = 0.0
+            self.C[:] = 0.0
+            self._prev = None
+            self._ref = None
+            self.mode, self.reason = "off", "below min_speed_hz or outside the schedule"
+            self._set_outputs()
+        return on
+
+    def _update(self, signals) -> None:
+        """End of a window: phasors, identification, fallback checks, law, limits."""
+        H, m, n = self._shape
+        acc = np.array(self._acc)
+        E = (2.0 / self._span) * (acc[0::2] + 1j * acc[1::2]).reshape(H, m)
+        if not np.all(np.isfinite(E)):
+            bad = [name for name, v in zip(self.sensors, signals) if not math.isfinite(v)]
+            raise ModelError(f"{self.name}: non-finite sensor signal in the last window "
+                             f"({', '.join(bad) or 'earlier sample'}; sensor fault?)")
+        speed = self._span / (self._count * self.sample_period_s)
+        self._clear_window()
+        self.E = E
+        self.n_updates += 1
+        prior = self.schedule.at(speed)
+        A = self.U + self.D
+        s = self.settings
+        if s.identify and self._prev is not None:
+            A_prev, E_prev = self._prev
+            learned = [r.update(A[hi] - A_prev[hi], E[hi] - E_prev[hi], prior[hi],
+                                float(np.linalg.norm(A_prev[hi])))
+                       for hi, r in enumerate(self.rls)]
+            if any(learned):
+                worst = max(r.residual for r, ok in zip(self.rls, learned) if ok)
+                self._poor = self._poor + 1 if worst > s.poor_residual else 0
+        self._prev = (A.copy(), E.copy())
+        self.estimate = prior + np.array([r.correction for r in self.rls])
+        norm = float(np.linalg.norm(E))
+        if self._ref is None:
+            self._ref = norm / speed**2
+        if self.mode == "adapting":
+            growth = norm / max(self._ref * speed**2, 1e-300)
+            if not growth <= s.divergence_factor:
+                self._fall_back(f"diverging: |E| / Omega^2 grew {growth:.3g} times its value "
+                                "at switch-on")
+            elif self._poor >= s.patience:
+                self._fall_back(f"poor estimate: prediction residual above {s.poor_residual:g} "
+                                f"for {self._poor} updates")
+        if self.mode == "adapting" and s.adapt_in == "excitations":
+            self._update_excitations(E[0] - self.estimate[0] @ self.D[0], speed)
+        elif self.mode == "adapting":
+            for hi in range(H):
+                A_U, B = update_matrices(self.estimate[hi], s.law, self.gain_at(speed),
+                                         effort_weight=s.effort_weight, leakage=s.leakage,
+                                         sensor_weights=s.sensor_weights)
+                e = E[hi] - self.estimate[hi] @ self.D[hi]
+                self.U[hi] = A_U @ self.U[hi] - B @ e
+        if self.mode == "adapting":
+            if s.dither_n > 0:
+                self.D = s.dither_n * np.exp(2j * np.pi * self._rng.random((H, n)))
+        elif self.mode == "fading":
+            self.U *= 1.0 - 1.0 / s.fade_updates
+            self.C *= 1.0 - 1.0 / s.fade_updates
+            self.D[:] = 0.0
+        self._limit(speed)
+        self._set_outputs()
+
+    def gain_at(self, speed: float) -> float:
+        """The adaptation gain at this speed (the schedule's nearest node, else ``gain``)."""
+        s = self.settings
+        if not s.gain_values:
+            return s.gain
+        i = int(np.argmin(np.abs(np.log(np.asarray(s.gain_speeds_rad_s) / speed))))
+        return s.gain_values[i]
+
+    def _source_map(self, speed: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(F, K)``: the phasors ``U = -F C`` that cancel the estimated excitations ``C`` at this
+        speed, and the error they leave per unit estimate error, ``E = K (C_true - C)``."""
+        G = self.schedule.at(speed)[0] + self.rls[0].correction
+        Hd = self.schedule.disturbance_at(speed)
+        F = np.linalg.pinv(G) @ Hd
+        return F, G @ F
+
+    def _update_excitations(self, e: np.ndarray, speed: float) -> None:
+        """Adapt the excitation estimate (the law acting on ``K``), then the phasors from it."""
+        s = self.settings
+        _, K = self._source_map(speed)
+        A_C, B = update_matrices(K, s.law, self.gain_at(speed), effort_weight=s.effort_weight,
+                                 leakage=s.leakage, sensor_weights=s.sensor_weights)
+        self.C = A_C @ self.C + B @ e
+        self._synthesise(speed, limit=False)
+
+    def _synthesise(self, speed: float, limit: bool = True) -> None:
+        """Phasors from the excitation estimate at the current speed (speed scheduling within
+        a window); with ``limit``, into the limits and onto the outputs."""
+        self._since_refresh = 0
+        self.U[0] = -self._source_map(speed)[0] @ self.C
+        if limit:
+            self._limit(speed)
+            self._set_outputs()
+
+    def _fall_back(self, reason: str) -> None:
+        self.mode = "fading" if self.settings.fallback == "fade" else "frozen"
+        self.reason = reason
+        self.D[:] = 0.0
+
+    def _limit(self, speed: float) -> None:
+        """Scale each actuator's phasors into the force and slope limits (anti-windup)."""
+        s = self.settings
+        A = np.abs(self.U + self.D)
+        h = np.array(self.harmonics, dtype=float)[:, None]
+        peak = A.sum(axis=0)
+        slope = (h * speed * A).sum(axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.minimum(1.0, np.minimum(np.where(peak > 0, s.force_limit_n / peak, 1.0),
+                                               np.where(slope > 0, s.rate_limit_n_per_s / slope,
+                                                        1.0)))
+        self.saturated = bool(np.any(scale < 1.0))
+        if self.saturated:
+            self.U *= scale
+            self.D *= scale
+            self.C *= scale.min()              # the estimate behind the phasors, likewise
+
+    def describe(self) -> str:
+        s = self.settings
+        every = (f"every {s.update_every_samples} samples" if s.update_every_samples
+                 else "once per revolution")
+        extra = ", online identification" if s.identify else ""
+        return (f"{self.name}: harmonics {list(self.harmonics)}, law {s.law} (gain "
+                f"{'scheduled over speed' if s.gain_values else format(s.gain, 'g')}), "
+                f"{len(self.actuator_ids)} actuators x {len(self.sensors)} sensors, "
+                f"update {every}{extra}")
+

@@ -1,0 +1,290 @@
+"""Stability of adaptive harmonic control: its exact linear equivalent at a fixed speed.
+
+At a constant speed ``Omega`` with an integer number ``P`` of samples per revolution, the loop
+of plant, feedback controllers (the feet's ``G_c``) and the harmonic block
+(:mod:`rotor_avc.harmonic.block`, without identification, which is nonlinear) is linear and
+``P``-periodic. Its state ``Z = [X; acc; U]`` -- the sampled loop's state ``X`` (plant, held
+forces, controller and delay states), the demodulation sums and the real and imaginary parts
+of the phasors -- obeys ``Z_{k+1} = M_k Z_k`` with, per sample and in the block's order:
+
+1. ``acc += Omega T [cos(h theta_k); -sin(h theta_k)] e_k``  (``e_k = C_e X_k``);
+2. at a window's last sample: ``U <- A_U U - B E``, ``E = 2 acc / (n Omega T)``, ``acc <- 0``;
+3. ``X_{k+1} = A X_k + B_h sum_h (cos(h theta_k) Ur_h - sin(h theta_k) Ui_h)``.
+
+The product over one revolution is an exact linear time-invariant system at the revolution
+rate (the lifted system); its eigenvalues are the loop's poles per revolution (Floquet
+multipliers; ``s = ln(z) / T_rev``), stable iff all lie inside the unit circle. This is the
+revolution-rate form of the LTI equivalent of Guo & Bodson (2010) and Zazas & Daley (2017): for
+per-sample updates, ``V = U e^{j h theta}`` turns the block into the time-invariant filter with
+poles at ``e^{+-j h Omega T}`` that they derive. Eigenvalues exactly at 1 are split off and
+not counted: the feedback integrators' drift (as in :mod:`.sampled_loop`) and, for laws
+without leakage or effort penalty, the phasor directions the update never moves (the null
+space of ``G^`` when there are more actuators than sensors).
+
+The quasi-steady counterpart (no plant dynamics) is :func:`rotor_avc.harmonic.laws.
+convergence_radius`; the robustness map (:func:`robustness_map`) evaluates both over the
+estimate's phase and magnitude error and the gain.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ..analysis.sampled_loop import SampledLoop, SampledPoles, _df2t_realisation
+from ..analysis.transfer import quantity
+from ..control.spec import FEEDBACK_ORDER
+from ..errors import ModelError
+from ..models.discretize import discretize_plant
+from .laws import convergence_radius, update_matrices
+
+HELD_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class LoopWithInput:
+    """``X+ = A X + B f``, ``e = C X``: the sampled loop with forces ``f`` added at some
+    actuators and the measured quantities ``e``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    n_drift: int
+
+
+def _row(plant, name, dp, Nt, held):
+    """State row of a measured quantity (acceleration: with the held forces' feed-through)."""
+    kind, row, order, _ = quantity(plant, name)
+    if kind != "row":
+        raise ModelError(f"{name!r} is a force, not a measured quantity")
+    n, N = plant.n, 2 * plant.n
+    out = np.zeros(Nt)
+    if order == 0:
+        out[:n] = row
+    elif order == 1:
+        out[n:N] = row
+    else:
+        P = np.array([a.force_vector for a in plant.actuators]).reshape(-1, n).T
+        out[:N] = row @ dp.accel_state
+        out[held] = row @ dp.accel_force @ P
+    return out
+
+
+def loop_with_input(loop: SampledLoop, speed_rad_s: float, w_F: float, input_ids, output_names
+                    ) -> LoopWithInput:
+    """The sampled loop (DESIGN.md section 3) with added forces and chosen outputs."""
+    p = loop.plant
+    dp = discretize_plant(p, speed_rad_s, w_F, loop.sample_period_s)
+    ids = [a.id for a in p.actuators]
+    N, na = 2 * p.n, len(ids)
+    ctrl = list(loop.controllers)
+    reals = [_df2t_realisation(loop.controllers[c]) for c in ctrl]
+    delays = [loop.delay_samples.get(c, 0) for c in ctrl]
+    Nt = N + na + sum(r[0].shape[0] for r in reals) + sum(delays)
+    held = slice(N, N + na)
+    A = np.zeros((Nt, Nt))
+    uX = np.zeros((na, Nt))                     # total force = uX X + S_h f
+    k = N + na
+    for c, (Ac, Bc, Cc, Dc), d in zip(ctrl, reals, delays):
+        tf = loop.controllers[c]
+        act = p.actuator(c)
+        mX = np.zeros(Nt)
+        mX[:] = _row(p, f"foot_{c}_{'dva'[FEEDBACK_ORDER[tf.feedback]]}{act.axis}", dp, Nt, held)
+        nc = Ac.shape[0]
+        xi = slice(k, k + nc)
+        if d:
+            w0 = k + nc
+            A[w0] = mX
+            for j in range(1, d):
+                A[w0 + j, w0 + j - 1] = 1.0
+            tX = np.zeros(Nt)
+            tX[w0 + d - 1] = 1.0
+        else:
+            tX = mX
+        A[xi, xi] = Ac
+        A[xi] += np.outer(Bc, tX)
+        i = ids.index(c)
+        uX[i, xi] = -Cc
+        uX[i] -= Dc * tX
+        k += nc + d
+    S = np.zeros((na, len(input_ids)))
+    for j, a in enumerate(input_ids):
+        S[ids.index(p.actuator(a).id), j] = 1.0
+    A[:N, :N] = dp.Phi
+    A[:N] += dp.Gamma_u @ uX
+    A[held] = uX
+    B = np.zeros((Nt, len(input_ids)))
+    B[:N] = dp.Gamma_u @ S
+    B[held] = S
+    C = np.array([_row(p, name, dp, Nt, held) for name in output_names]).reshape(-1, Nt)
+    return LoopWithInput(A, B, C, loop._n_drift())
+
+
+def _real(M: np.ndarray) -> np.ndarray:
+    """Real form ``[[Re, -Im], [Im, Re]]`` of a complex matrix."""
+    return np.block([[M.real, -M.imag], [M.imag, M.real]])
+
+
+def samples_per_revolution(speed_rad_s: float, sample_period_s: float) -> int:
+    """``P`` if a revolution spans an integer number of samples (to 1e-9), else ModelError."""
+    P = 2 * np.pi / (speed_rad_s * sample_period_s)
+    if abs(P - round(P)) > 1e-9 * P:
+        raise ModelError(f"{speed_rad_s / (2 * np.pi):g} Hz is not an integer number of samples "
+                         f"per revolution ({P:.4f}) at {1 / sample_period_s:g} Hz -- pick a "
+                         "speed f_s / P for an integer P")
+    return int(round(P))
+
+
+def harmonic_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, actuators, sensors,
+                   harmonics, estimate: np.ndarray, law: str, gain: float, *,
+                   effort_weight: float = 0.0, leakage: float = 0.0, sensor_weights=None,
+                   update_every_samples: int = 0, lwi: LoopWithInput | None = None
+                   ) -> SampledPoles:
+    """Poles of the one-revolution map of the adaptive loop (module docstring) as
+    :class:`SampledPoles` with the revolution as sample period (``drift``: the split-off
+    eigenvalues at 1); ``estimate`` (H, M, N) the influence estimate the block uses."""
+    T = loop.sample_period_s
+    P = samples_per_revolution(speed_rad_s, T)
+    every = update_every_samples or P
+    if P % every:
+        raise ModelError(f"update_every_samples {every} does not divide the {P} samples of a "
+                         "revolution (the loop would not be periodic per revolution)")
+    lwi = lwi or loop_with_input(loop, speed_rad_s, w_F, actuators, sensors)
+    H, M, N = len(harmonics), len(sensors), len(actuators)
+    Nt = lwi.A.shape[0]
+    na, nu = 2 * H * M, 2 * H * N
+    nZ = Nt + na + nu
+    acc = slice(Nt, Nt + na)
+    uu = slice(Nt + na, nZ)
+    upd = np.zeros((nu, nu))
+    upd_acc = np.zeros((nu, na))
+    n_held = 0
+    for hi in range(H):
+        A_U, B = update_matrices(estimate[hi], law, gain, effort_weight=effort_weight,
+                                 leakage=leakage, sensor_weights=sensor_weights)
+        r = slice(2 * N * hi, 2 * N * (hi + 1))
+        upd[r, r] = _real(A_U)
+        upd_acc[r, 2 * M * hi:2 * M * (hi + 1)] = -_real(B) * 2.0 / (every * speed_rad_s * T)
+        if np.allclose(A_U, np.eye(N)):
+            n_held += 2 * (N - np.linalg.matrix_rank(estimate[hi]))
+    w = speed_rad_s * T
+    h = np.array(harmonics, dtype=float)
+    Phi = np.eye(nZ)
+    for k in range(P):                       # Phi <- S3 S2 S1 Phi, each step in place
+        c, s = np.cos(h * speed_rad_s * T * k), np.sin(h * speed_rad_s * T * k)
+        Ce = lwi.C @ Phi[:Nt]                                     # e_k (M, nZ)
+        for hi in range(H):
+            Phi[Nt + 2 * M * hi:Nt + 2 * M * hi + M] += w * c[hi] * Ce
+            Phi[Nt + 2 * M * hi + M:Nt + 2 * M * (hi + 1)] -= w * s[hi] * Ce
+        if (k + 1) % every == 0:
+            Phi[uu] = upd @ Phi[uu] + upd_acc @ Phi[acc]
+            Phi[acc] = 0.0
+        Jout = np.concatenate([np.concatenate([ci * np.eye(N), -si * np.eye(N)], axis=1)
+                               for ci, si in zip(c, s)], axis=1)           # (N, nu)
+        Phi[:Nt] = lwi.A @ Phi[:Nt] + (lwi.B @ Jout) @ Phi[uu]
+    z = scipy.linalg.eigvals(Phi)
+    n_split = n_held + lwi.n_drift
+    idx = np.argsort(np.abs(z - 1.0))[:n_split]
+    idx = idx[np.abs(z[idx] - 1.0) <= HELD_TOL ** 0.5]
+    keep = np.ones(z.size, bool)
+    keep[idx] = False
+    return SampledPoles(float(speed_rad_s), float(w_F), P * T, z[keep], z[idx])
+
+
+@dataclass(frozen=True)
+class RobustnessMap:
+    """Spectral radius per (phase error, magnitude factor, gain): quasi-steady (laws only) and,
+    where computed, of the exact one-revolution map (NaN elsewhere)."""
+
+    law: str
+    phase_error_deg: np.ndarray
+    magnitude_factor: np.ndarray
+    gain: np.ndarray
+    quasi_steady: np.ndarray          # (phase, magnitude, gain)
+    exact: np.ndarray
+
+    def converges(self, which: str = "quasi_steady") -> np.ndarray:
+        return getattr(self, which) < 1.0
+
+    def phase_limit_deg(self, which: str = "quasi_steady") -> np.ndarray:
+        """Per (magnitude, gain): the largest |phase error| up to which every grid point
+        converges (NaN if even zero error diverges)."""
+        ok = self.converges(which)
+        ph = np.abs(self.phase_error_deg)
+        out = np.full(ok.shape[1:], np.nan)
+        for i in np.ndindex(*ok.shape[1:]):
+            bad = ph[~ok[(slice(None),) + i]]
+            good = ph[ok[(slice(None),) + i]]
+            if good.size and 0.0 in good:
+                out[i] = good[good < bad.min()].max() if bad.size else good.max()
+        return out
+
+
+def robustness_map(G_true: np.ndarray, law: str, phase_error_deg, magnitude_factor, gain, *,
+                   effort_weight: float = 0.0, leakage: float = 0.0, exact=None
+                   ) -> RobustnessMap:
+    """Convergence over estimate errors ``G^ = m e^{j phi} G`` and gains; ``exact``: optional
+    ``(phase_index, magnitude_index, gain_index) -> max |z|`` of the one-revolution map
+    (:func:`harmonic_poles`) evaluated at chosen points."""
+    ph, mg, gn = (np.atleast_1d(np.asarray(v, dtype=float)) for v in
+                  (phase_error_deg, magnitude_factor, gain))
+    qs = np.zeros((ph.size, mg.size, gn.size))
+    ex = np.full(qs.shape, np.nan)
+    for i, phi in enumerate(ph):
+        for j, m in enumerate(mg):
+            est = G_true * m * np.exp(1j * np.deg2rad(phi))
+            for k, g in enumerate(gn):
+                A_U, B = update_matrices(est, law, g, effort_weight=effort_weight,
+                                         leakage=leakage)
+                qs[i, j, k] = convergence_radius(A_U, B, G_true)
+    for (i, j, k), value in (exact or {}).items():
+        ex[i, j, k] = value
+    return RobustnessMap(law, ph, mg, gn, qs, ex)
+
+
+def gain_schedule(loop: SampledLoop, schedule, settings, speeds_rad_s, candidates, w_F=None
+                  ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Per speed (moved to the nearest whole number of samples per revolution) the largest
+    candidate gain whose one-revolution map contracts within 0.1 % of the best candidate's
+    (the plant's own slow modes bound every candidate alike) and by at least 0.1 % per
+    revolution; else the smallest candidate; ``(speeds, gains)``."""
+    T = loop.sample_period_s
+    out_s, out_g = [], []
+    for speed in speeds_rad_s:
+        P = max(int(round(2 * np.pi / (speed * T))), 3)
+        w = 2 * np.pi / (P * T)
+        wf = w if w_F is None else w_F
+        lwi = loop_with_input(loop, w, wf, schedule.actuators, schedule.sensors)
+        radii = [harmonic_poles(loop, w, wf, schedule.actuators, schedule.sensors,
+                                schedule.harmonics, schedule.at(w), settings.law, g,
+                                effort_weight=settings.effort_weight, leakage=settings.leakage,
+                                sensor_weights=settings.sensor_weights,
+                                update_every_samples=0, lwi=lwi).max_abs_z for g in candidates]
+        best = min(radii)
+        ok = [g for g, r in zip(candidates, radii) if r <= min(best + 1e-3, 1 - 1e-3)]
+        out_s.append(w)
+        out_g.append(max(ok) if ok else min(candidates))
+    return tuple(out_s), tuple(out_g)
+
+
+def stable_gain_limit(radius, nominal: float, max_factor: float = 100.0, rtol: float = 0.02
+                      ) -> float:
+    """Gain margin: the factor on the ``nominal`` gain up to which ``radius(gain) < 1`` holds
+    continuously from the nominal (log-grid scan, then bisection); 0 if unstable at nominal,
+    ``inf`` if stable up to ``max_factor``."""
+    if radius(nominal) >= 1.0:
+        return 0.0
+    grid = nominal * np.geomspace(1.0, max_factor, 13)
+    lo = grid[0]
+    for g in grid[1:]:
+        if radius(g) >= 1.0:
+            hi = g
+            break
+        lo = g
+    else:
+        return float("inf")
+    while hi / lo - 1.0 > rtol:
+        mid = np.sqrt(lo * hi)
+        lo, hi = (mid, hi) if radius(mid) < 1.0 else (lo, mid)
+    return float(np.sqrt(lo * hi) / nominal)

@@ -1,0 +1,169 @@
+"""``harmonic_controller``: the adaptive harmonic (1x, nx) controller as a ROS node.
+
+Run: ``ros2 run rotor_avc harmonic_controller --ros-args -p
+scenario:=scenario_harmonic_case2_steady`` (or ``python -m rotor_avc.nodes.harmonic_controller ...``); the plant runs with
+``-p harmonic:=true``.
+
+A thin adapter over :class:`rotor_avc.harmonic.block.HarmonicController` as the scenario's
+``simulation.harmonic`` builds it (the block the in-process loop runs). For every sample ``t_k``
+it takes the shaft angle and speed from ``rotor/joint_state`` and its sensor signals from
+``plant/observables`` (the labelled measurement vector), steps the block once both have
+arrived, and publishes its forces on ``harmonic/forces`` (labelled array ``time_s,
+<actuator>_f<axis>...``), which the plant adds to the feedback controllers' forces -- in lockstep
+the plant waits for it as for a foot controller. A repeated stamp is answered from the cache;
+after each update ``harmonic/status`` (labelled array: ``time_s, mode, updates, |E| per
+harmonic and sensor, |U| per harmonic and actuator``; mode 0 off, 1 adapting, 2 frozen,
+3 fading) and ``/diagnostics`` carry the estimate's state. Malformed messages are ignored and
+reported.
+"""
+from __future__ import annotations
+
+import math
+
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from ..errors import ModelError, RotorAvcError
+from ..harmonic.block import MODES
+from ..sim.stepper import MeasurementLayout
+from . import messages as m
+from . import taps
+from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
+from .timing import LoopTiming
+
+PARAMS = COMMON_PARAMS + (
+    Param("scenario", "", "scenario config with `simulation.harmonic: true`"),
+    Param("namespace", m.NAMESPACE, "topic namespace of the machine"),
+)
+
+
+def force_names(plant, actuator_ids) -> list[str]:
+    """Labels of the ``harmonic/forces`` values (the plant checks them)."""
+    return [f"{a}_f{plant.actuator(a).axis}" for a in actuator_ids]
+
+
+class HarmonicControllerNode(Node):
+    """The harmonic controller node (see the module docstring)."""
+
+    def __init__(self, name: str = "harmonic_controller", **kwargs):
+        super().__init__(name, **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        self.executor_kind = self.p["executor"]
+        sc = node_scenario(self, self.p["scenario"], "a scenario with `simulation.harmonic: true`")
+        self.block = sc.harmonic()
+        if self.block is None:
+            raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
+                                "`simulation.harmonic: true` -- fix: use a harmonic scenario")
+        self.block.reset()
+        layout_names = MeasurementLayout(sc.machine.plant).names
+        self.obs_label = ",".join(("time_s",) + tuple(layout_names))
+        self.sensor_at = [1 + layout_names.index(s) for s in self.block.sensors]
+        ns = self.p["namespace"]
+        self.forces_msg = m.LabelledBytes(force_names(sc.machine.plant, self.block.actuator_ids))
+        H, M, N = len(self.block.harmonics), len(self.block.sensors), len(self.block.actuator_ids)
+        self.status_msg = m.LabelledBytes(
+            ["mode", "updates"] + [f"E{h}_{s}" for h in self.block.harmonics
+                                   for s in self.block.sensors]
+            + [f"U{h}_{a}" for h in self.block.harmonics for a in self.block.actuator_ids])
+        self.pub_forces = taps.publisher(self, Float64MultiArray, m.topic("harmonic/forces", ns),
+                                         m.LOCKSTEP_QOS)
+        self.pub_status = taps.publisher(self, Float64MultiArray, m.topic("harmonic/status", ns),
+                                         m.LOCKSTEP_QOS)
+        self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
+                                 m.LOCKSTEP_QOS, raw=True)
+        self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
+                                 self._on_observables, m.LOCKSTEP_QOS, raw=True)
+        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self.timing = LoopTiming(None)
+        self.shape = (H, M, N)
+        self.last_stamp = -1
+        self.pending: dict[int, list] = {}          # stamp -> [angle/speed or None, signals]
+        self.forces = [0.0] * N
+        self.faults = 0
+        self.last_fault = ""
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_joint(self, data: bytes) -> None:
+        try:
+            stamp, position, velocity = m.joint_state(data)
+        except m.MessageError as exc:
+            self._fault(f"rotor/joint_state ignored: {exc}")
+            return
+        if not (position and velocity):
+            self._fault(f"rotor/joint_state at {stamp} ns without angle or speed: ignored")
+            return
+        self._arrived(stamp, 0, (position[0], velocity[0]))
+
+    def _on_observables(self, data: bytes) -> None:
+        try:
+            label, values = m.labelled_array(data)
+            if label != self.obs_label:
+                raise m.MessageError("labels differ from the scenario's measurement vector")
+            stamp = m.received_time_ns(values[0])
+        except m.MessageError as exc:
+            self._fault(f"plant/observables ignored: {exc}")
+            return
+        self._arrived(stamp, 1, [values[i] for i in self.sensor_at])
+
+    def _arrived(self, stamp: int, part: int, value) -> None:
+        if stamp < self.last_stamp:
+            return                                   # stale: the plant has moved on
+        if stamp == self.last_stamp:
+            self._publish(stamp)                     # the plant resends: answer from the cache
+            return
+        parts = self.pending.setdefault(stamp, [None, None])
+        parts[part] = value
+        if parts[0] is not None and parts[1] is not None:
+            del self.pending[stamp]
+            for old in [s for s in self.pending if s < stamp]:
+                del self.pending[old]
+            self._step(stamp, *parts)
+
+    # -- the block ---------------------------------------------------------------------------
+    def _step(self, stamp: int, rotor, signals) -> None:
+        angle, speed = rotor
+        self.timing.start()
+        updates = self.block.n_updates
+        if all(map(math.isfinite, (angle, speed, *signals))):
+            try:
+                self.forces = list(self.block.step(signals, angle, speed))
+            except ModelError as exc:
+                self._fault(f"at {stamp} ns: {exc}; forces held")
+        else:
+            self._fault(f"non-finite angle, speed or signal at {stamp} ns: forces held")
+        self.last_stamp = stamp
+        self.timing.stop()
+        self._publish(stamp)
+        if self.block.n_updates != updates:
+            b = self.block
+            self.pub_status.publish(self.status_msg.fill(stamp * 1e-9, [
+                MODES.index(b.mode), b.n_updates, *abs(b.E).ravel().tolist(),
+                *abs(b.U).ravel().tolist()]))
+
+    def _publish(self, stamp: int) -> None:
+        self.pub_forces.publish(self.forces_msg.fill(stamp * 1e-9, self.forces))
+
+    def _fault(self, text: str) -> None:
+        self.faults += 1
+        self.last_fault = text
+        self.get_logger().warning(text)
+
+    def _publish_diagnostics(self) -> None:
+        st = self.block.status
+        stats = self.timing.summary()
+        stats.update({"faults": self.faults, "mode": st["mode"], "updates": st["updates"],
+                      "saturated": st["saturated"], "reason": st["reason"]})
+        level = "warn" if self.last_fault or st["mode"] in ("frozen", "fading") else "ok"
+        text = self.last_fault or f"harmonic control: {st['mode']}"
+        self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0), [
+            (f"{self.get_name()}: harmonic", level, text, stats), m.published_status(self)]))
+
+
+def main(args=None) -> int:
+    return run_node(HarmonicControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
