@@ -13,6 +13,7 @@ from ..analysis.stability_study import (RAD_S_PER_RPM, StudyResult, machine_thre
 from ..analysis.stability_threshold import STATUSES, eigenvalues_over_speed
 from ..config import load_config
 from ..errors import ConfigError
+from ..studies.backends import add_backend_arguments, backend_from_args
 
 NAME = "stability"
 HELP = ("Threshold of stability of a machine with loss-factor and internal damping (eigenvalues "
@@ -38,6 +39,7 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true",
                    help='print {"threshold_rpm", "whirl_rad_s", "critical_mode"} (threshold_rpm null '
                         'when none is found); with --vary/--study {"points": [...], "maximum": ...}')
+    add_backend_arguments(p)
 
 
 def run(args) -> int:
@@ -81,7 +83,8 @@ def run(args) -> int:
 
 
 def _run_study(cfg, varies, args) -> int:
-    study = run_study(cfg, varies)
+    study = run_study(cfg, varies, backend=backend_from_args(args.workers, args.scheduler),
+                      batch_size=args.batch_size, progress=not args.json)
     rows = study.rows()
     if args.json:
         print(json.dumps({"points": rows, "maximum": study.maximum()}, indent=1))
@@ -91,7 +94,7 @@ def _run_study(cfg, varies, args) -> int:
         for row in rows:
             vals = " | ".join(f"{row[lab]:.4g}" for lab in labels)
             if row["threshold_rpm"] is None:
-                print(f"{vals} | {STATUSES[row['status']]}")
+                print(f"{vals} | {STATUSES.get(row['status'], row['status'])}")
             else:
                 print(f"{vals} | {row['threshold_rpm']:.1f} | {row['whirl_rad_s']:.3f} | "
                       f"{row['critical_mode']}")
