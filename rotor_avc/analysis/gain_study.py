@@ -162,9 +162,9 @@ class GainCurves:
 def gain_study(plant: LinearPlant, feedback: str, gains, speed_rpm, excitation: str,
                structure: str = "P", gain_name: str | None = None, fixed: dict | None = None,
                window_rpm: float = 200.0, peak_fraction: float = 0.25,
-               resonance_quantities=None, backend=None) -> GainStudy:
+               resonance_quantities=None, backend=None, batch_size=None) -> GainStudy:
     """Sweep one controller gain on every actuator of ``plant`` (see the module docstring) on
-    the study engine (``backend``: :func:`rotor_avc.studies.engine.run_study`)."""
+    the study engine (``backend``, ``batch_size``: :func:`rotor_avc.studies.engine.run_study`)."""
     gains = np.asarray(gains, float)
     speeds = np.asarray(speed_rpm, float)
     if gains.ndim != 1 or gains.size == 0 or np.any(~np.isfinite(gains)):
@@ -179,7 +179,8 @@ def gain_study(plant: LinearPlant, feedback: str, gains, speed_rpm, excitation: 
         study_controller(structure, feedback, gain_name, gains[-1], fixed or {})
     evaluator = GainCurves(plant, feedback, structure, gain_name, fixed or {},
                            speeds / RPM_PER_RAD_S, excitation)
-    run = run_study(StudySpec(ValueList(gain_name, gains), evaluator), backend, progress=False)
+    run = run_study(StudySpec(ValueList(gain_name, gains), evaluator), backend,
+                    batch_size=batch_size, progress=False)
     if run.failed:
         o = run.failed[0]
         raise ModelError(f"{gain_name} = {gains[o.index]:g}: {o.error}")

@@ -1,7 +1,9 @@
 """``rotor-avc study``: controller gain sweeps -- resonance shifts, reductions, actuator forces
-(seed 001 Sec. 4, Figs. 5-13), as CSV and PNG."""
+(seed 001 Sec. 4, Figs. 5-13), as CSV and PNG; ``rotor-avc study robustness``: the Monte-Carlo
+robustness study (:mod:`rotor_avc.cli.robustness`)."""
 from __future__ import annotations
 
+import argparse
 import csv
 from pathlib import Path
 
@@ -12,13 +14,19 @@ from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ConfigError
 from ..machine import load_machine
+from ..studies.backends import add_backend_arguments, backend_from_args
+from . import robustness
+from .common import speed_range_hz
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
         "response over speed per gain, the resonance speeds and reductions versus gain and the "
-        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13.")
+        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13. `study robustness CONFIG "
+        "--sample PATH=DIST --n N`: probability of stability and distributions of peak response "
+        "and stability margin under sampled parameters.")
 EXAMPLE = ("rotor-avc study sleeve_bearing_motor --feedback velocity --gains 1e4:1e6:20 "
-           "--out out/study")
+           "--out out/study\n  rotor-avc study robustness foot_mount_case3 --sample "
+           "'foundation.stiffness_n_per_m.z*=normal(1, 0.15)' --n 1000 --out out/robust")
 
 #: paper units for the plots: (mm/s)/um for velocities per metre, N/um for forces per metre
 PLOT_SCALE = {"m/s/(m)": (1e-3, "(mm/s)/um"), "N/(m)": (1e-6, "N/um")}
@@ -26,7 +34,9 @@ PLOT_SCALE = {"m/s/(m)": (1e-3, "(mm/s)/um"), "N/(m)": (1e-6, "N/um")}
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name "
-                                  "(sleeve_bearing_motor); its controllers are replaced")
+                                  "(sleeve_bearing_motor); its controllers are replaced. Or "
+                                  "`robustness CONFIG` for the Monte-Carlo study")
+    p.add_argument("robustness_config", nargs="?", metavar="CONFIG", help=argparse.SUPPRESS)
     p.add_argument("--feedback", choices=list(FEEDBACK_ORDER), action="append",
                    help="feedback kind (repeatable; default: every kind in the config's "
                         "analysis.study.gains)")
@@ -42,6 +52,19 @@ def add_arguments(p) -> None:
     p.add_argument("--excitation", help="excitation (default analysis.study.excitation)")
     p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
     p.add_argument("--no-plots", action="store_true", help="write only the CSV files")
+    g = p.add_argument_group("robustness study (rotor-avc study robustness CONFIG ...)")
+    g.add_argument("--sample", action="append", default=[], metavar="PATH=DIST",
+                   help="sampled config path(s): PATH=normal(MEAN, STD), uniform(LOW, HIGH) or "
+                        "lognormal(MU, SIGMA) (ln x ~ N(MU, SIGMA)); PATH*=... for a factor on "
+                        "the base value; comma-join paths that take the same value (repeatable)")
+    g.add_argument("--n", type=int, default=1000, help="number of points (default 1000)")
+    g.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    g.add_argument("--speed-hz", type=speed_range_hz, metavar="START:STOP:N",
+                   help="speeds of the peak responses (default: analysis.frf_speed_hz)")
+    g.add_argument("--response", action="append", metavar="NAME",
+                   help="response whose peak is recorded (repeatable; default: every bearing "
+                        "response, e.g. bearing_D_vz_static)")
+    add_backend_arguments(p)
 
 
 def _fixed(items: list[str]) -> dict[str, float]:
@@ -66,6 +89,15 @@ def _names(sec, key: str) -> list[str] | None:
 
 
 def run(args) -> int:
+    if args.config == "robustness":
+        if args.robustness_config is None:
+            raise ConfigError("CONFIG", "no machine config given after `robustness`",
+                              fix="write rotor-avc study robustness foot_mount_case3 --sample ...")
+        return robustness.run(args)
+    if args.robustness_config is not None or args.sample:
+        raise ConfigError("CONFIG", "a gain study takes one config and no --sample",
+                          fix="write rotor-avc study robustness CONFIG --sample ... for the "
+                              "Monte-Carlo study")
     machine = load_machine(args.config)
     sec = machine.analysis.section("study", {})
     sec.check_keys(("excitation", "speed_rpm", "window_rpm", "peak_fraction", "gains",
@@ -91,7 +123,8 @@ def run(args) -> int:
                            args.sweep, _fixed(args.fixed),
                            sec.number("window_rpm", 200.0, positive=True, unit="rpm"),
                            sec.number("peak_fraction", 0.25, positive=True, maximum=1.0),
-                           _names(sec, "resonances_of"))
+                           _names(sec, "resonances_of"),
+                           backend_from_args(args.workers, args.scheduler), args.batch_size)
         stem = args.out / f"{machine.plant.name}_{kind}"
         for path in _write(study, stem, not args.no_plots):
             print(f"wrote {path}")

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -98,7 +99,7 @@ def robustness_point(cfg: Section, speed_hz=None, responses=None) -> RobustnessP
                            tuple(chosen))
 
 
-def wilson_interval(k: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+def wilson_interval(k: int, n: int, z: float = NormalDist().inv_cdf(0.975)) -> tuple[float, float]:
     """95 % Wilson score interval of a binomial proportion ``k / n``."""
     if n == 0:
         return math.nan, math.nan
