@@ -13,7 +13,7 @@ A study is a :class:`StudySpec`: a point set (:class:`~rotor_avc.studies.points.
 
 Points are evaluated in batches of consecutive indices, each batch doing about
 :data:`TASK_TARGET_S` of work (the cost per point is measured on the first points, evaluated in
-this process). A point that raises is recorded with its error (``"Type: message"``) and the study
+this process) unless the batch size is given. A point that raises is recorded with its error (``"Type: message"``) and the study
 goes on. With an output folder, finished points are journaled as they arrive and a study
 started again on the same folder computes only the points not yet there
 (:mod:`rotor_avc.studies.output`).
@@ -74,7 +74,7 @@ class StudyRun:
 
     outcomes: list[Outcome]
     computed: int                    # points evaluated in this run (the rest were resumed)
-    cost_per_point_s: float | None   # measured on the first points of this run
+    cost_per_point_s: float | None   # measured on the first points (None: batch size given)
     batch_size: int
     elapsed_s: float
     files: list[Path] = field(default_factory=list)
@@ -93,7 +93,8 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
     """Evaluate every point of ``spec`` on ``backend`` (default: serial in this process).
 
     ``out``: folder for the incremental results (resumed when it holds a part of this study);
-    ``batch_size``: points per task (default: about :data:`TASK_TARGET_S` of work per task);
+    ``batch_size``: points per task (default: about :data:`TASK_TARGET_S` of work per task, the
+    cost measured on the first points here; given, every point goes to the backend);
     ``on_outcome(outcome)``: called in this process for every finished point."""
     from .backends import SerialBackend
     from .output import ResultStore
@@ -124,8 +125,7 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
 
     cost, size = None, batch_size or 1
     try:
-        context = spec.evaluator.prepare() if todo else None
-        first, cost = _calibrate(spec, context, todo, record)
+        first, cost = (0, None) if batch_size or not todo else _calibrate(spec, todo, record)
         rest = todo[first:]
         size = batch_size or (max(1, math.ceil(TASK_TARGET_S / cost)) if cost else 1)
         if rest:
@@ -142,9 +142,10 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
                     time.perf_counter() - t0, files)
 
 
-def _calibrate(spec: StudySpec, context, todo: list[int], record) -> tuple[int, float | None]:
+def _calibrate(spec: StudySpec, todo: list[int], record) -> tuple[int, float | None]:
     """Evaluate the first points of ``todo`` here until :data:`CALIBRATE_S` has passed (at
     least two points); the cost per point is the mean without the first (warm-up) point."""
+    context = spec.evaluator.prepare()
     count, start, t_first = 0, time.perf_counter(), None
     while count < len(todo) and (count < 2 or time.perf_counter() - start < CALIBRATE_S):
         record(evaluate_batch(spec, context, [todo[count]]))
@@ -152,5 +153,5 @@ def _calibrate(spec: StudySpec, context, todo: list[int], record) -> tuple[int, 
         if t_first is None:
             t_first = time.perf_counter()
     if count < 2:
-        return count, (time.perf_counter() - start) if count else None
+        return count, time.perf_counter() - start
     return count, max((time.perf_counter() - t_first) / (count - 1), 1e-6)
