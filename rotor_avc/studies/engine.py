@@ -13,7 +13,7 @@ A study is a :class:`StudySpec`: a point set (:class:`~rotor_avc.studies.points.
 
 Points are evaluated in batches of consecutive indices, each batch doing about
 :data:`TASK_TARGET_S` of work (the cost per point is measured on the first points, evaluated in
-this process) unless the batch size is given. A point that raises is recorded with its error (``"Type: message"``) and the study
+this process), in at most :data:`MAX_TASKS` batches, unless the batch size is given. A point that raises is recorded with its error (``"Type: message"``) and the study
 goes on. With an output folder, finished points are journaled as they arrive and a study
 started again on the same folder computes only the points not yet there
 (:mod:`rotor_avc.studies.output`).
@@ -30,6 +30,8 @@ from .progress import Progress
 
 #: work per task (s): long enough that scheduling overhead (~1 ms per task) is below 1 %
 TASK_TARGET_S = 0.1
+#: at most this many tasks per study (bounds the scheduler's and this process's bookkeeping)
+MAX_TASKS = 10_000
 #: time spent measuring the cost per point in this process before the backend takes over (s)
 CALIBRATE_S = 0.25
 
@@ -127,7 +129,8 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
     try:
         first, cost = (0, None) if batch_size or not todo else _calibrate(spec, todo, record)
         rest = todo[first:]
-        size = batch_size or (max(1, math.ceil(TASK_TARGET_S / cost)) if cost else 1)
+        size = batch_size or (max(math.ceil(TASK_TARGET_S / cost), math.ceil(len(rest) / MAX_TASKS))
+                              if cost else 1)
         if rest:
             for batch in backend.run(spec, batches_of(rest, size)):
                 record(batch)

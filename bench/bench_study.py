@@ -1,0 +1,110 @@
+"""Benchmark: the study engine on this machine -- parallel efficiency of local processes, the
+1,000-point Monte-Carlo robustness study of the seed-000 case-3 closed loop, cost per point and
+scaling with points and workers, and what that means for a 10^6-point study on a cluster.
+
+* efficiency: a study whose points cost about 50 ms (the case-3 robustness point, its speed
+  grid scaled to 50 ms), serial in-process against 2 worker processes, same run
+  (goal: >= 80 %);
+* Monte-Carlo: 1,000 points, stiffnesses and masses +-10-20 % (normal, uniform, log-normal),
+  each point: poles at 0 and 250 Hz (stability, margin) and the peak bearing responses over
+  2,000 speeds, on every core (goal: <= 60 s);
+* scaling: total time for 250 / 500 / 1,000 points on 2 workers and 250 points on 1 and 2.
+
+Every parallel run is checked bit for bit against the serial outcomes of the same points
+(exit 1 on a difference). Run: ``python bench/bench_study.py [--points 1000]``.
+"""
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from rotor_avc.config import load_config  # noqa: E402
+from rotor_avc.studies.backends import ProcessBackend, SerialBackend, available_cores  # noqa: E402
+from rotor_avc.studies.engine import TASK_TARGET_S, StudySpec, run_study  # noqa: E402
+from rotor_avc.studies.points import Sample, parse_sample  # noqa: E402
+from rotor_avc.studies.robustness import robustness_point  # noqa: E402
+
+SAMPLES = ("foundation.stiffness_n_per_m.z,foundation.stiffness_n_per_m.y*=normal(1, 0.15)",
+           "elements.actuator.stiffness_n_per_m.z*=uniform(0.8, 1.2)",
+           "machine.stator_mass_kg*=lognormal(0, 0.1)",
+           "foundation.mass_kg*=normal(1, 0.2)")
+
+
+def study(n: int, n_speeds: int = 2000) -> StudySpec:
+    cfg = load_config("foot_mount_case3")
+    sample = Sample([parse_sample(s) for s in SAMPLES], n, 2026, cfg)
+    return StudySpec(sample, robustness_point(cfg, np.linspace(1.0, 250.0, n_speeds)))
+
+
+def timed(spec, backend):
+    t0 = time.perf_counter()
+    run = run_study(spec, backend, progress=False)
+    return time.perf_counter() - t0, run
+
+
+def best_of(spec, backend, repeats: int = 3):
+    """Fastest of ``repeats`` runs (the machine is shared: the others only add disturbance)."""
+    return min((timed(spec, backend) for _ in range(repeats)), key=lambda r: r[0])
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--points", type=int, default=1000, help="Monte-Carlo points (default 1000)")
+    args = ap.parse_args()
+    status = 0
+
+    # cost of one 2,000-speed point, serial, and a speed grid for ~50 ms points
+    t, ref = timed(study(20), SerialBackend())
+    cost = t / 20
+    n_speeds = int(np.clip(round(2000 * 0.05 / cost), 100, 4000))
+    print(f"case-3 robustness point, 2,000 speeds: {cost * 1e3:.1f} ms serial "
+          f"(calibrated: {ref.cost_per_point_s * 1e3:.1f} ms)")
+
+    # parallel efficiency at 2 workers
+    eff_spec = study(80, n_speeds)
+    t1, serial = best_of(eff_spec, SerialBackend())
+    t2, par = best_of(eff_spec, ProcessBackend(2))
+    if par.outcomes != serial.outcomes:
+        print("  MISMATCH: 2 workers differ from serial")
+        status = 1
+    print(f"efficiency, 80 points of {t1 / 80 * 1e3:.0f} ms ({n_speeds} speeds), best of 3:")
+    print(f"  serial {t1:6.2f} s, 2 workers {t2:6.2f} s -> speed-up {t1 / t2:.2f}, "
+          f"efficiency {t1 / (2 * t2) * 100:5.1f} %   (goal >= 80 %)")
+
+    # scaling with workers and points, and the 1,000-point study on every core
+    cores = available_cores()
+    print(f"scaling (2,000 speeds per point; {cores} cores):")
+    t_1, s_250 = timed(study(250), SerialBackend())
+    print(f"  {250:5d} points, 1 worker  : {t_1:6.2f} s  ({t_1 / 250 * 1e3:.1f} ms per point)")
+    totals = {}
+    for n in (250, 500, args.points):
+        totals[n], run = timed(study(n), ProcessBackend(2))
+        print(f"  {n:5d} points, 2 workers : {totals[n]:6.2f} s  ({totals[n] / n * 1e3:.1f} ms "
+              f"per point, x{totals[n] / totals[250]:.2f} the 250-point time)")
+        if run.outcomes[:250] != s_250.outcomes:
+            print("  MISMATCH: the first 250 points differ from the serial run")
+            status = 1
+    print(f"  250 points: 1 -> 2 workers speed-up {t_1 / totals[250]:.2f}")
+    t_mc, mc = timed(study(args.points), ProcessBackend(cores))
+    stable = sum(o.record["stable"] for o in mc.outcomes if o.record)
+    print(f"Monte-Carlo, {args.points} points on {cores} workers: {t_mc:.1f} s (goal <= 60 s), "
+          f"{stable} stable, {len(mc.failed)} failed, batches of {mc.batch_size}")
+
+    # a 10^6-point study on a cluster, from the measured cost per point
+    c = t_1 / 250
+    batch = math.ceil(TASK_TARGET_S / c)
+    tasks = math.ceil(1e6 / batch)
+    print(f"10^6 points at {c * 1e3:.1f} ms: batches of {batch} -> {tasks} tasks; "
+          f"{1e6 * c / 3600:.1f} core-hours; "
+          + ", ".join(f"{w} workers ~{1e6 * c / w / 60:.0f} min" for w in (16, 64, 256)))
+    return status
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
