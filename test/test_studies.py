@@ -2,6 +2,8 @@
 results across backends and batch sizes, recorded failures, resuming, and the robustness study
 against a direct evaluation of the sampled machine."""
 import json
+import os
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -13,7 +15,7 @@ from rotor_avc.cli import main
 from rotor_avc.config import find_config, load_config
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import load_machine
-from rotor_avc.studies.backends import ProcessBackend, SerialBackend
+from rotor_avc.studies.backends import BackendError, ProcessBackend, SerialBackend
 from rotor_avc.studies.engine import StudySpec, run_study
 from rotor_avc.studies.points import Grid, Sample, parse_sample, parse_vary
 from rotor_avc.studies.robustness import robustness_point, wilson_interval
@@ -130,6 +132,48 @@ def test_an_interrupted_study_resumes_without_recomputing(case3, tmp_path):
     assert (tmp_path / "points.csv").read_bytes() == whole
     rows = journal.read_text().splitlines()[1:]
     assert sorted(int(r.split(",")[0]) for r in rows) == list(range(12))
+
+
+@dataclass(frozen=True)
+class EndsItsWorker:
+    """The robustness evaluator, except that point 7 ends its worker process while the file
+    ``trigger`` exists (a crash in the middle of a study); same study identity."""
+
+    inner: object
+    trigger: str
+
+    @property
+    def fields(self):
+        return self.inner.fields
+
+    def prepare(self):
+        return self.inner.prepare()
+
+    def evaluate(self, context, point):
+        if point.index == 7 and os.path.exists(self.trigger):
+            os._exit(3)
+        return self.inner.evaluate(context, point)
+
+    def describe(self):
+        return self.inner.describe()
+
+
+def test_a_crashed_worker_stops_the_study_and_the_rerun_completes_it(case3, tmp_path):
+    spec = robustness_spec(case3)
+    run_study(spec, SerialBackend(), out=tmp_path / "serial", progress=False)
+    trigger = tmp_path / "crash"
+    trigger.touch()
+    crashing = StudySpec(spec.points, EndsItsWorker(spec.evaluator, str(trigger)))
+    with pytest.raises(BackendError, match="run the same command again to resume"):
+        run_study(crashing, ProcessBackend(2), out=tmp_path / "run", batch_size=1, progress=False)
+    kept = (tmp_path / "run" / "points.csv").read_text().splitlines()[1:]
+    assert 0 < len(kept) < 12 and not any(line.startswith("7,") for line in kept)
+    trigger.unlink()
+    again = run_study(crashing, ProcessBackend(2), out=tmp_path / "run", batch_size=1,
+                      progress=False)
+    assert again.computed == 12 - len(kept)
+    for name in ("points.csv", "points.npz"):
+        assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "serial" / name).read_bytes()
 
 
 def test_a_folder_of_another_study_is_refused(case3, tmp_path):

@@ -11,9 +11,17 @@ from __future__ import annotations
 import os
 import uuid
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 
-from ..errors import ConfigError
-from .engine import StudySpec, evaluate_batch
+from ..errors import ConfigError, RotorAvcError
+from .engine import StudySpec, describe_error, evaluate_batch
+
+RESUME_HINT = ("the finished points are kept in the output folder's journal: run the same "
+               "command again to resume")
+
+
+class BackendError(RotorAvcError):
+    """A worker or the cluster failed (not a point: a failing point is recorded)."""
 
 #: per worker process: study token -> (spec, prepared context)
 _PREPARED: dict[str, tuple[StudySpec, object]] = {}
@@ -75,8 +83,16 @@ class ProcessBackend:
             try:
                 while pending:
                     finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    broken = [f for f in finished if f.exception() is not None]
                     for fut in finished:
-                        yield fut.result()
+                        if fut.exception() is None:
+                            yield fut.result()
+                    if broken:
+                        exc = broken[0].exception()
+                        if not isinstance(exc, BrokenProcessPool):
+                            raise exc
+                        raise BackendError(f"a worker process stopped ({describe_error(exc)}); "
+                                           + RESUME_HINT)
             finally:
                 for fut in pending:
                     fut.cancel()
@@ -112,7 +128,14 @@ class DaskBackend:
         futures = [self.client.submit(_dask_batch, shared, token, b, pure=False) for b in batches]
         try:
             for fut in as_completed(futures):
-                yield fut.result()
+                try:
+                    batch = fut.result()
+                except Exception as exc:     # noqa: BLE001 -- points do not raise: the cluster did
+                    raise BackendError(
+                        f"a task failed on the cluster ({describe_error(exc)}); check that every "
+                        "worker has this package and its dependencies installed; "
+                        + RESUME_HINT) from None
+                yield batch
                 fut.release()
         finally:
             self.client.cancel(futures)
