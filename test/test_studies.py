@@ -241,3 +241,19 @@ def test_robustness_command_writes_table_plot_and_summary(tmp_path, capsys):
 def test_robustness_command_refusals(tmp_path, capsys, argv, message):
     assert main(["study"] + argv + ["--out", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_a_stability_map_resumes_from_its_folder(tmp_path, capsys):
+    """Seed 003's threshold over the bearing stiffness: the second run reads every point back
+    and writes the same table."""
+    argv = ["stability", "roller_bearing_stability", "--variant", "d", "--vary",
+            "bearings.stiffness_n_per_m.z=1.0e+8:3.0e+8:3", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    first = (tmp_path / "thresholds.csv").read_bytes()
+    assert "resuming" not in capsys.readouterr().err
+    assert main(argv) == 0
+    assert "resuming: 3 of 3 points already done" in capsys.readouterr().err
+    assert (tmp_path / "thresholds.csv").read_bytes() == first
+    table = np.load(tmp_path / "points" / "points.npz")
+    rows = first.decode().splitlines()[1:]
+    assert [float(r.split(",")[1]) for r in rows] == table["threshold_rpm"].tolist()

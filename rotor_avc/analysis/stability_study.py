@@ -207,15 +207,16 @@ class StudyResult:
 
 
 def run_study(cfg: Section, varies: list[Vary], field: str = "--vary", backend=None,
-              batch_size: int | None = None, progress: bool = False) -> StudyResult:
+              batch_size: int | None = None, out=None, progress: bool = False) -> StudyResult:
     """Run the threshold procedure at every point of the grid spanned by one or two ``varies``
-    on the study engine (``backend``, ``batch_size``: :func:`rotor_avc.studies.engine.run_study`)."""
+    on the study engine (``backend``, ``batch_size``, ``out``: the results folder, resumed;
+    :func:`rotor_avc.studies.engine.run_study`)."""
     if not 1 <= len(varies) <= 2:
         raise ConfigError(field, f"a study varies one or two parameters (got {len(varies)})",
                           fix="give --vary once or twice (comma-join paths that move together)")
     grid = Grid(varies, cfg, field)
-    run = run_points(StudySpec(grid, ThresholdPoint(cfg, field)), backend, batch_size=batch_size,
-                     progress=progress)
+    run = run_points(StudySpec(grid, ThresholdPoint(cfg, field)), backend, out, batch_size,
+                     progress)
     records = np.empty(grid.shape, dtype=object)
     for o in run.outcomes:
         records[np.unravel_index(o.index, grid.shape)] = o.record or {

@@ -35,7 +35,8 @@ def add_arguments(p) -> None:
                    help="vary a dotted config path (once or twice for a 2-D map); comma-join paths "
                         "that take the same value, `*=` for factors on the base values, "
                         "START:STOP:N:log for log spacing or [v1,v2,...] for a list")
-    p.add_argument("--out", type=Path, help="folder for threshold.json / thresholds.csv and plots")
+    p.add_argument("--out", type=Path, help="folder for threshold.json / thresholds.csv and plots "
+                                            "(a map's points also go to DIR/points/, resumed)")
     p.add_argument("--json", action="store_true",
                    help='print {"threshold_rpm", "whirl_rad_s", "critical_mode"} (threshold_rpm null '
                         'when none is found); with --vary/--study {"points": [...], "maximum": ...}')
@@ -84,7 +85,8 @@ def run(args) -> int:
 
 def _run_study(cfg, varies, args) -> int:
     study = run_study(cfg, varies, backend=backend_from_args(args.workers, args.scheduler),
-                      batch_size=args.batch_size, progress=not args.json)
+                      batch_size=args.batch_size, out=args.out and args.out / "points",
+                      progress=not args.json)
     rows = study.rows()
     if args.json:
         print(json.dumps({"points": rows, "maximum": study.maximum()}, indent=1))

@@ -37,6 +37,8 @@ def fingerprint(spec: StudySpec) -> str:
 
 
 def _cell(value) -> str:
+    if isinstance(value, np.generic):
+        value = value.item()
     if value is None:
         return ""
     if isinstance(value, bool):
