@@ -32,42 +32,43 @@ def run(args) -> int:
     print(f"{len(sample)} points ({study.computed} computed in this run{cost}, "
           f"{study.elapsed_s:.1f} s on {backend.workers} worker(s), batches of "
           f"{study.batch_size})")
-    print(table(summary))
+    print(table(summary, spec.evaluator.unit_of))
     for o in study.failed[:5]:
         print(f"  point {o.index} failed: {o.error}")
-    paths = study.files + write_summary(summary, args.out)
+    paths = study.files + write_summary(summary, spec.evaluator.unit_of, args.out)
     if not args.no_plots and records:
-        paths.append(plot_distributions(records, summary, args.out / "robustness.png"))
+        paths.append(plot_distributions(records, summary, spec.evaluator.unit_of,
+                                        args.out / "robustness.png"))
     for path in paths:
         print(f"wrote {path}")
     return 0
 
 
-def table(summary: dict) -> str:
+def table(summary: dict, unit_of) -> str:
     lo, hi = summary["probability_95_low"], summary["probability_95_high"]
     lines = [f"stable: {summary['stable']} of {summary['points']} evaluated points -> probability "
              f"{summary['stability_probability']:.4f} (95 % interval {lo:.4f} .. {hi:.4f}); "
              f"{summary['failed']} failed",
-             f"{'quantity':44s}" + "".join(f"{s:>12s}" for s in STATS)]
+             f"{'quantity':38s}{'unit':>14s}" + "".join(f"{s:>11s}" for s in STATS)]
     for name, m in summary["metrics"].items():
-        lines.append(f"{name:44s}" + "".join(f"{m[s]:12.4g}" for s in STATS))
+        lines.append(f"{name:38s}{unit_of(name):>14s}" + "".join(f"{m[s]:11.4g}" for s in STATS))
     return "\n".join(lines)
 
 
-def write_summary(summary: dict, folder: Path) -> list[Path]:
+def write_summary(summary: dict, unit_of, folder: Path) -> list[Path]:
     """``summary.json`` (everything) and ``summary.csv`` (one row per quantity)."""
     js = folder / "summary.json"
     js.write_text(json.dumps(summary, indent=1) + "\n")
     path = folder / "summary.csv"
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["quantity"] + list(STATS))
+        w.writerow(["quantity", "unit"] + list(STATS))
         for name, m in summary["metrics"].items():
-            w.writerow([name] + [repr(m[s]) for s in STATS])
+            w.writerow([name, unit_of(name)] + [repr(m[s]) for s in STATS])
     return [js, path]
 
 
-def plot_distributions(records: list[dict], summary: dict, path: Path) -> Path:
+def plot_distributions(records: list[dict], summary: dict, unit_of, path: Path) -> Path:
     """Histograms of the stability margin and of every peak response (5/50/95 % marked)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -83,8 +84,8 @@ def plot_distributions(records: list[dict], summary: dict, path: Path) -> Path:
         ax.hist(v, bins=min(50, max(10, len(v) // 20)), color="tab:blue", alpha=0.8)
         for q in ("p5", "p50", "p95"):
             ax.axvline(summary["metrics"][name][q], color="k", ls=":" if q != "p50" else "-", lw=0.8)
-        ax.set_title(name.replace("peak_", "peak |") + ("|" if name.startswith("peak_") else "")
-                     + (" [1/s]" if name.endswith("1_per_s") else ""), fontsize=8)
+        label = f"peak |{name[5:]}|" if name.startswith("peak_") else name
+        ax.set_title(f"{label} [{unit_of(name)}]", fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes.flat[len(names):]:
         ax.set_visible(False)

@@ -40,6 +40,7 @@ class RobustnessPoint:
     speed_hz: tuple[float, ...]
     pole_speeds_hz: tuple[float, ...]
     responses: tuple[str, ...]
+    units: tuple[str, ...]          # of each response (SI per unit excitation)
 
     @property
     def fields(self) -> dict:
@@ -74,6 +75,14 @@ class RobustnessPoint:
         return {"robustness": self.cfg.data, "speed_hz": self.speed_hz,
                 "pole_speeds_hz": self.pole_speeds_hz, "responses": self.responses}
 
+    def unit_of(self, field: str) -> str:
+        """SI unit of a record field."""
+        for name, unit in zip(self.responses, self.units):
+            if field == f"peak_{name}":
+                return unit
+        return {"min_damping_ratio": "1", "stable": ""}.get(
+            field, "Hz" if field.startswith("peak_speed_hz_") else "1/s")
+
 
 def robustness_point(cfg: Section, speed_hz=None, responses=None) -> RobustnessPoint:
     """The evaluator for a config: speeds from ``speed_hz`` or ``analysis.frf_speed_hz``, poles
@@ -88,7 +97,8 @@ def robustness_point(cfg: Section, speed_hz=None, responses=None) -> RobustnessP
         start = rng.number("start", positive=True, unit="Hz")
         stop = rng.number("stop", minimum=start, unit="Hz")
         speed_hz = np.linspace(start, stop, rng.integer("n", minimum=2))
-    names = list(unbalance_frf(machine.loop, [2 * np.pi * speed_hz[0]]).responses)
+    units = unbalance_frf(machine.loop, [2 * np.pi * speed_hz[0]]).units
+    names = list(units)
     chosen = responses or [n for n in names if n.startswith("bearing")]
     unknown = [n for n in chosen if n not in names]
     if unknown or not chosen:
@@ -96,7 +106,7 @@ def robustness_point(cfg: Section, speed_hz=None, responses=None) -> RobustnessP
                           fix="choose from: " + ", ".join(names))
     poles = machine.analysis.number_list("pole_speeds_hz", [0.0], min_length=1)
     return RobustnessPoint(cfg, tuple(float(f) for f in speed_hz), tuple(float(f) for f in poles),
-                           tuple(chosen))
+                           tuple(chosen), tuple(units[n] for n in chosen))
 
 
 def wilson_interval(k: int, n: int, z: float = NormalDist().inv_cdf(0.975)) -> tuple[float, float]:
