@@ -236,7 +236,9 @@ def test_robustness_command_writes_table_plot_and_summary(tmp_path, capsys):
     (["robustness", "foot_mount_case3", "--sample", f"{KZ}*=normal(1, 0.1)", "--n", "0"], "--n"),
     (["robustness", "foot_mount_case3", "--sample", f"{KZ}*=normal(1, 0.1)", "--response",
       "bearing_q"], "choose from"),
-    (["sleeve_bearing_motor", "--sample", f"{KZ}*=normal(1, 0.1)"], "no --sample"),
+    (["sleeve_bearing_motor", "--sample", f"{KZ}*=normal(1, 0.1)"], "--sample does not apply"),
+    (["robustness", "foot_mount_case3", "--sample", f"{KZ}*=normal(1, 0.1)", "--gains", "1:2:2"],
+     "--gains does not apply"),
 ])
 def test_robustness_command_refusals(tmp_path, capsys, argv, message):
     assert main(["study"] + argv + ["--out", str(tmp_path)]) == 2

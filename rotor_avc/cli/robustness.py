@@ -21,7 +21,9 @@ STATS = ("mean", "std", "min", "p5", "p50", "p95", "max")
 
 def run(args) -> int:
     cfg = load_config(args.robustness_config)
-    sample = Sample([parse_sample(t) for t in args.sample], args.n, args.seed, cfg)
+    args.out = args.out or Path("out/robustness")
+    sample = Sample([parse_sample(t) for t in args.sample], 1000 if args.n is None else args.n,
+                    args.seed or 0, cfg)
     spec = StudySpec(sample, robustness_point(cfg, args.speed_hz, args.response))
     backend = backend_from_args(args.workers, args.scheduler)
     study = run_study(spec, backend, out=args.out, batch_size=args.batch_size)

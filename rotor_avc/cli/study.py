@@ -50,21 +50,39 @@ def add_arguments(p) -> None:
     p.add_argument("--fixed", action="append", default=[], metavar="NAME=VALUE",
                    help="value of a gain that is not swept (e.g. kd=2.0e+3 for a PD sweep)")
     p.add_argument("--excitation", help="excitation (default analysis.study.excitation)")
-    p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
+    p.add_argument("--out", type=Path, help="output folder (default out/study, for the robustness "
+                                            "study out/robustness)")
     p.add_argument("--no-plots", action="store_true", help="write only the CSV files")
     g = p.add_argument_group("robustness study (rotor-avc study robustness CONFIG ...)")
     g.add_argument("--sample", action="append", default=[], metavar="PATH=DIST",
                    help="sampled config path(s): PATH=normal(MEAN, STD), uniform(LOW, HIGH) or "
                         "lognormal(MU, SIGMA) (ln x ~ N(MU, SIGMA)); PATH*=... for a factor on "
                         "the base value; comma-join paths that take the same value (repeatable)")
-    g.add_argument("--n", type=int, default=1000, help="number of points (default 1000)")
-    g.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    g.add_argument("--n", type=int, help="number of points (default 1000)")
+    g.add_argument("--seed", type=int, help="study seed (default 0)")
     g.add_argument("--speed-hz", type=speed_range_hz, metavar="START:STOP:N",
                    help="speeds of the peak responses (default: analysis.frf_speed_hz)")
     g.add_argument("--response", action="append", metavar="NAME",
                    help="response whose peak is recorded (repeatable; default: every bearing "
                         "response, e.g. bearing_D_vz_static)")
     add_backend_arguments(p)
+
+
+#: options of one kind of study (argparse dest -> option), refused by the other
+GAIN_OPTIONS = {"feedback": "--feedback", "gains": "--gains", "sweep": "--sweep",
+                "fixed": "--fixed", "excitation": "--excitation"}
+ROBUSTNESS_OPTIONS = {"sample": "--sample", "n": "--n", "seed": "--seed", "speed_hz": "--speed-hz",
+                      "response": "--response"}
+
+
+def _refuse(args, options: dict, study: str) -> None:
+    given = [opt for dest, opt in options.items() if getattr(args, dest) not in (None, [])]
+    if study == "the robustness study" and args.structure != "P":
+        given.append("--structure")
+    if given:
+        verb = "does" if len(given) == 1 else "do"
+        raise ConfigError(given[0], f"{', '.join(given)} {verb} not apply to {study}",
+                          fix="leave it out (rotor-avc study --help lists the options of each)")
 
 
 def _fixed(items: list[str]) -> dict[str, float]:
@@ -93,11 +111,14 @@ def run(args) -> int:
         if args.robustness_config is None:
             raise ConfigError("CONFIG", "no machine config given after `robustness`",
                               fix="write rotor-avc study robustness foot_mount_case3 --sample ...")
+        _refuse(args, GAIN_OPTIONS, "the robustness study")
         return robustness.run(args)
-    if args.robustness_config is not None or args.sample:
-        raise ConfigError("CONFIG", "a gain study takes one config and no --sample",
+    if args.robustness_config is not None:
+        raise ConfigError("CONFIG", "a gain study takes one config",
                           fix="write rotor-avc study robustness CONFIG --sample ... for the "
                               "Monte-Carlo study")
+    _refuse(args, ROBUSTNESS_OPTIONS, "a gain study")
+    args.out = args.out or Path("out/study")
     machine = load_machine(args.config)
     sec = machine.analysis.section("study", {})
     sec.check_keys(("excitation", "speed_rpm", "window_rpm", "peak_fraction", "gains",
