@@ -176,6 +176,20 @@ def test_a_crashed_worker_stops_the_study_and_the_rerun_completes_it(case3, tmp_
         assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "serial" / name).read_bytes()
 
 
+def test_the_tables_are_rewritten_while_the_study_runs(case3, tmp_path, monkeypatch):
+    monkeypatch.setattr("rotor_avc.studies.output.SNAPSHOT_S", 0.0)
+    seen = []
+
+    def look(outcome):                          # before the point is journaled
+        if (tmp_path / "points.npz").exists():
+            seen.append(np.load(tmp_path / "points.npz")["index"].tolist())
+
+    run_study(robustness_spec(case3), SerialBackend(), out=tmp_path, batch_size=1,
+              progress=False, on_outcome=look)
+    assert seen and all(s == list(range(len(s))) and 0 < len(s) < 12 for s in seen)
+    assert not list(tmp_path.glob("*.part"))
+
+
 def test_a_folder_of_another_study_is_refused(case3, tmp_path):
     run_study(robustness_spec(case3, n=3), SerialBackend(), out=tmp_path, progress=False)
     with pytest.raises(ConfigError, match="different study"):

@@ -136,7 +136,7 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
                 record(batch)
     finally:
         bar.close()
-        files = store.finish(done) if store else []
+        files = store.finish() if store else []
     missing = [i for i in range(n) if i not in done]
     if missing:
         raise RuntimeError(f"the backend returned no result for {len(missing)} points "

@@ -4,8 +4,9 @@
 * ``journal.csv`` -- one line per finished point, appended (and flushed) as results arrive in
   any order: a study started again on the folder reads it and computes only the missing points
   (a line cut off by an interruption is dropped and recomputed);
-* ``points.csv`` and ``points.npz`` -- every finished point in index order, written when the
-  study ends or is interrupted. Columns: ``index``, the axis values, the record's fields,
+* ``points.csv`` and ``points.npz`` -- every finished point in index order, rewritten (each
+  file replaced whole) every :data:`SNAPSHOT_S` s or more while the study runs, and when it ends
+  or is interrupted. Columns: ``index``, the axis values, the record's fields,
   ``error`` (empty when the point succeeded). The CSV holds floats in their shortest exact
   form (``repr``), so it reads back bit for bit.
 
@@ -22,6 +23,8 @@ import hashlib
 import io
 import json
 import math
+import os
+import time
 import zipfile
 from pathlib import Path
 
@@ -29,6 +32,11 @@ import numpy as np
 
 from ..errors import ConfigError
 from .engine import Outcome, StudySpec
+
+#: least time between two rewrites of the tables while a study runs (s); a rewrite that takes
+#: long spaces the next one ten times its duration out
+SNAPSHOT_S = 30.0
+
 
 def fingerprint(spec: StudySpec) -> str:
     text = json.dumps({"points": spec.points.describe(), "evaluator": spec.evaluator.describe()},
@@ -82,7 +90,9 @@ class ResultStore:
                                   fix="give another --out folder, or delete that one to start over")
         else:
             path.write_text(json.dumps(manifest, indent=1, default=str) + "\n")
+        self.rows: dict[int, list[str]] = {}
         self.done = self._read_journal()
+        self._next_snapshot = time.monotonic() + SNAPSHOT_S
         self._fh = open(self.journal, "a", newline="")
         if self._fh.tell() == 0:
             self._fh.write(",".join(self.columns) + "\n")
@@ -119,27 +129,43 @@ class ResultStore:
             record = None if error else {
                 f: _parse(v, k) for f, v, k in zip(self.fields, row[first:-1], kinds)}
             done[index] = Outcome(index, record, error)
+            self.rows[index] = row
         return done
 
     def append(self, outcomes: list[Outcome]) -> None:
+        """Journal finished points (and rewrite the tables when a snapshot is due)."""
         if not outcomes:
             return
+        rows = [self._row(o) for o in outcomes]
+        for o, row in zip(outcomes, rows):
+            self.done[o.index] = o
+            self.rows[o.index] = row
         buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerows(self._row(o) for o in outcomes)
+        csv.writer(buf, lineterminator="\n").writerows(rows)
         self._fh.write(buf.getvalue())
         self._fh.flush()
+        if time.monotonic() >= self._next_snapshot:
+            start = time.monotonic()
+            self.write_tables()
+            self._next_snapshot = time.monotonic() + max(SNAPSHOT_S, 10 * (time.monotonic() - start))
 
     # -- tables -------------------------------------------------------------------------------
-    def finish(self, done: dict[int, Outcome]) -> list[Path]:
-        """Write ``points.csv`` and ``points.npz`` of the finished points in index order."""
+    def finish(self) -> list[Path]:
+        """Close the journal and write the tables."""
         self._fh.close()
-        outcomes = [done[i] for i in sorted(done)]
-        rows = [self._row(o) for o in outcomes]
+        return self.write_tables()
+
+    def write_tables(self) -> list[Path]:
+        """``points.csv`` and ``points.npz`` of the finished points in index order."""
+        order = sorted(self.done)
+        outcomes = [self.done[i] for i in order]
+        rows = [self.rows[i] for i in order]
         csv_path = self.folder / "points.csv"
-        with open(csv_path, "w", newline="") as fh:
+        with open(csv_path.with_suffix(".csv.part"), "w", newline="") as fh:
             w = csv.writer(fh, lineterminator="\n")
             w.writerow(self.columns)
             w.writerows(rows)
+        os.replace(csv_path.with_suffix(".csv.part"), csv_path)
         columns = {"index": np.array([o.index for o in outcomes], dtype=np.int64)}
         for k, lab in enumerate(self.labels, start=1):
             columns[lab] = np.array([float(r[k]) for r in rows], dtype=float)
@@ -150,7 +176,8 @@ class ResultStore:
                           np.array([math.nan if v is None else float(v) for v in values]))
         columns["error"] = np.array([o.error or "" for o in outcomes], dtype=str)
         npz_path = self.folder / "points.npz"
-        write_npz(npz_path, columns)
+        write_npz(npz_path.with_suffix(".npz.part"), columns)
+        os.replace(npz_path.with_suffix(".npz.part"), npz_path)
         return [csv_path, npz_path]
 
 
