@@ -1,8 +1,11 @@
 """The study engine: point sets (grids, seeded samples checked against scipy.stats), identical
 results across backends and batch sizes, recorded failures, resuming, and the robustness study
 against a direct evaluation of the sampled machine."""
+import io
 import json
 import os
+import subprocess
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +21,7 @@ from rotor_avc.machine import load_machine
 from rotor_avc.studies.backends import BackendError, ProcessBackend, SerialBackend
 from rotor_avc.studies.engine import StudySpec, run_study
 from rotor_avc.studies.points import Grid, Sample, parse_sample, parse_vary
+from rotor_avc.studies.progress import Progress
 from rotor_avc.studies.robustness import robustness_point, wilson_interval
 
 KZ = "foundation.stiffness_n_per_m.z"
@@ -273,3 +277,23 @@ def test_a_stability_map_resumes_from_its_folder(tmp_path, capsys):
     table = np.load(tmp_path / "points" / "points.npz")
     rows = first.decode().splitlines()[1:]
     assert [float(r.split(",")[1]) for r in rows] == table["threshold_rpm"].tolist()
+
+
+def test_progress_lines_count_points_and_time_left():
+    stream = io.StringIO()
+    bar = Progress(200, resumed=50, stream=stream)
+    for done in range(51, 201):
+        bar.update(done)
+    bar.close()
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "resuming: 50 of 200 points already done"
+    assert 2 <= len(lines) <= 12                 # one line per tenth when not on a terminal
+    assert "200/200 points" in lines[-1] and "ETA 00:00" in lines[-1]
+
+
+def test_the_engine_imports_neither_ros_nor_dask():
+    code = ("import sys, rotor_avc.studies.backends, rotor_avc.studies.robustness, "
+            "rotor_avc.studies.output; "
+            "print(sorted(m for m in ('rclpy', 'distributed', 'dask') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
