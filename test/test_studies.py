@@ -194,6 +194,19 @@ def test_the_tables_are_rewritten_while_the_study_runs(case3, tmp_path, monkeypa
     assert not list(tmp_path.glob("*.part"))
 
 
+def test_a_larger_sample_on_the_folder_adds_points(case3, tmp_path):
+    run_study(robustness_spec(case3, n=12), SerialBackend(), out=tmp_path / "whole", progress=False)
+    run_study(robustness_spec(case3, n=5), SerialBackend(), out=tmp_path / "grown", progress=False)
+    grown = run_study(robustness_spec(case3, n=12), ProcessBackend(2), out=tmp_path / "grown",
+                      progress=False)
+    assert grown.computed == 7
+    assert (tmp_path / "grown" / "points.csv").read_bytes() == \
+        (tmp_path / "whole" / "points.csv").read_bytes()
+    fewer = run_study(robustness_spec(case3, n=3), SerialBackend(), out=tmp_path / "grown",
+                      progress=False)
+    assert fewer.computed == 0 and [o.index for o in fewer.outcomes] == [0, 1, 2]
+
+
 def test_a_folder_of_another_study_is_refused(case3, tmp_path):
     run_study(robustness_spec(case3, n=3), SerialBackend(), out=tmp_path, progress=False)
     with pytest.raises(ConfigError, match="different study"):

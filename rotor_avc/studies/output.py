@@ -3,7 +3,9 @@
 * ``study.json`` -- what the study is (points, evaluator, configuration) and its fingerprint;
 * ``journal.csv`` -- one line per finished point, appended (and flushed) as results arrive in
   any order: a study started again on the folder reads it and computes only the missing points
-  (a line cut off by an interruption is dropped and recomputed);
+  (a line cut off by an interruption is dropped and recomputed). A sample's identity leaves out
+  its number of points, so a study with a larger ``--n`` on the folder adds points to it, and
+  one with a smaller ``--n`` reports the first ones;
 * ``points.csv`` and ``points.npz`` -- every finished point in index order, rewritten (each
   file replaced whole) every :data:`SNAPSHOT_S` s or more while the study runs, and when it ends
   or is interrupted. Columns: ``index``, the axis values, the record's fields,
@@ -77,9 +79,8 @@ class ResultStore:
         self.fields = dict(fields)
         self.columns = ["index"] + self.labels + list(self.fields) + ["error"]
         self.spec = spec
-        manifest = {"fingerprint": fingerprint(spec), "n_points": len(spec.points),
-                    "columns": self.columns, "points": spec.points.describe(),
-                    "evaluator": spec.evaluator.describe()}
+        manifest = {"fingerprint": fingerprint(spec), "columns": self.columns,
+                    "points": spec.points.describe(), "evaluator": spec.evaluator.describe()}
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / "study.json"
         self.journal = folder / "journal.csv"
@@ -126,6 +127,8 @@ class ResultStore:
         done = {}
         for row in csv.reader(lines[1:]):
             index, error = int(row[0]), row[-1] or None
+            if index >= len(self.spec.points):           # a larger study of the same points
+                continue
             record = None if error else {
                 f: _parse(v, k) for f, v, k in zip(self.fields, row[first:-1], kinds)}
             done[index] = Outcome(index, record, error)

@@ -242,6 +242,7 @@ class Sample:
         return Point(int(index), values, overrides)
 
     def describe(self) -> dict:
+        """The sample's identity -- axes and seed, not the number of points: a study with more
+        (or fewer) points shares its first points with this one."""
         return {"sample": [{"paths": a.paths, "scale": a.scale, "distribution": a.distribution,
-                            "params": a.params} for a in self.axes],
-                "n": self.n, "seed": self.seed}
+                            "params": a.params} for a in self.axes], "seed": self.seed}
