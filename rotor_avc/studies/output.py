@@ -15,7 +15,7 @@
 ``points.npz`` is the columnar copy, one array per column (numbers as float64 with NaN where a
 value is missing, text as unicode): ``numpy.load`` opens it, and
 ``pandas.DataFrame(dict(numpy.load("points.npz")))`` makes it a table. It needs nothing beyond
-numpy; Parquet would need pyarrow (a 55 MB wheel, more than numpy and scipy together) for the
+numpy; Parquet would need pyarrow (a 55 MB wheel, about numpy's and scipy's together) for the
 same arrays. Its zip entries carry a fixed date, so equal results give equal bytes.
 """
 from __future__ import annotations
