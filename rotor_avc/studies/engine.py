@@ -3,8 +3,8 @@
 A study is a :class:`StudySpec`: a point set (:class:`~rotor_avc.studies.points.Grid` or
 :class:`~rotor_avc.studies.points.Sample`) and an *evaluator*, an object with
 
-* ``prepare() -> context``: the work shared by all points (e.g. the base machine built and
-  validated), done once per worker process;
+* ``prepare() -> context``: the work shared by all points (e.g. a gain study's plant), done
+  once per worker process;
 * ``evaluate(context, point) -> dict``: the small record of one point, a pure function of the
   configuration and the point (same inputs, same bits, on any worker);
 * ``fields``: ``{name: float | int | str | bool}`` of the record (what the output files hold;
@@ -13,8 +13,8 @@ A study is a :class:`StudySpec`: a point set (:class:`~rotor_avc.studies.points.
 
 Points are evaluated in batches of consecutive indices, each batch doing about
 :data:`TASK_TARGET_S` of work (the cost per point is measured on the first points, evaluated in
-this process), in at most :data:`MAX_TASKS` batches, unless the batch size is given. A point that raises is recorded with its error (``"Type: message"``) and the study
-goes on. With an output folder, finished points are journaled as they arrive and a study
+this process), in at most :data:`MAX_TASKS` batches, unless the batch size is given. A point
+that raises is recorded with its error (``"Type: message"``) and the study goes on. With an output folder, finished points are journaled as they arrive and a study
 started again on the same folder computes only the points not yet there
 (:mod:`rotor_avc.studies.output`).
 """
