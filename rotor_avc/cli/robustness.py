@@ -1,6 +1,7 @@
 """``rotor-avc study robustness``: Monte-Carlo robustness of a machine's closed loop -- the
 probability of stability and the distributions of peak response and stability margin when
-config parameters are drawn from distributions (:mod:`rotor_avc.studies.robustness`)."""
+config parameters are drawn from distributions (:mod:`rotor_avc.studies.robustness`). A mode of
+``rotor-avc study`` (:mod:`rotor_avc.cli.study` parses its options), not a command of its own."""
 from __future__ import annotations
 
 import csv

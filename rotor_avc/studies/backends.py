@@ -103,7 +103,7 @@ class DaskBackend:
     this package). Tasks are submitted with ``pure=False`` (Dask would otherwise merge calls with
     equal arguments); a task lost with a worker is run again on another one."""
 
-    def __init__(self, address: str, timeout_s: float = 30.0):
+    def __init__(self, address: str, timeout_s: float = 10.0):
         try:
             from distributed import Client
         except ImportError:
@@ -114,7 +114,12 @@ class DaskBackend:
         except (OSError, TimeoutError) as exc:
             raise ConfigError("--scheduler", f"no Dask scheduler answered at {address} ({exc})",
                               fix="start one (`dask scheduler`) and give its tcp://HOST:PORT") from None
-        self.client.wait_for_workers(1, timeout=timeout_s)
+        try:
+            self.client.wait_for_workers(1, timeout=timeout_s)
+        except TimeoutError:
+            self.client.close()
+            raise ConfigError("--scheduler", f"the scheduler at {address} has no workers",
+                              fix=f"start some: dask worker {address}") from None
 
     @property
     def workers(self) -> int:
