@@ -33,7 +33,7 @@ TASK_TARGET_S = 0.1
 #: at most this many tasks per study (bounds the scheduler's and this process's bookkeeping)
 MAX_TASKS = 10_000
 #: time spent measuring the cost per point in this process before the backend takes over (s)
-CALIBRATE_S = 0.25
+CALIBRATE_S = 0.1
 
 
 @dataclass(frozen=True)
