@@ -14,9 +14,9 @@ A study is a :class:`StudySpec`: a point set (:class:`~rotor_avc.studies.points.
 Points are evaluated in batches of consecutive indices, each batch doing about
 :data:`TASK_TARGET_S` of work (the cost per point is measured on the first points, evaluated in
 this process), in at most :data:`MAX_TASKS` batches, unless the batch size is given. A point
-that raises is recorded with its error (``"Type: message"``) and the study goes on. With an output folder, finished points are journaled as they arrive and a study
-started again on the same folder computes only the points not yet there
-(:mod:`rotor_avc.studies.output`).
+that raises is recorded with its error (``"Type: message"``) and the study goes on. With an
+output folder, finished points are journaled as they arrive and a study started again on the
+same folder computes only the points not yet there (:mod:`rotor_avc.studies.output`).
 """
 from __future__ import annotations
 
