@@ -1,0 +1,5 @@
+"""Parameter studies: point sets (grids, seeded random samples), one engine that evaluates them
+in batches, backends (this process, local processes, a Dask cluster) and incremental output.
+
+Imports only the numpy/scipy core; Dask is imported when a cluster is used.
+"""
