@@ -32,9 +32,11 @@ setup(
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)
         "ros": ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"],
+        # studies on a Dask cluster (`--scheduler`); local studies need nothing beyond the core
+        "cluster": ["distributed>=2024.1"],
         "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "mcap-ros2-support>=0.5",
                  "control>=0.10", "catkin_pkg",
-                 "colcon-core", "colcon-ros", "colcon-python-setup-py"],
+                 "colcon-core", "colcon-ros", "colcon-python-setup-py", "distributed>=2024.1"],
     },
     zip_safe=True,
     maintainer="rotor_avc developers",

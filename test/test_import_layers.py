@@ -104,7 +104,8 @@ def test_models_import_only_numpy_scipy_and_their_errors():
 
 def test_runtime_dependencies_are_what_runtime_code_imports():
     """install_requires lists exactly the third-party packages rotor_avc imports (ROS 2 comes
-    from the distribution or the `ros` extra; the test-only packages are in the `test` extra)."""
+    from the distribution or the `ros` extra; the test-only packages are in the `test` extra;
+    dask.distributed, imported only where a study runs on a cluster, is the `cluster` extra)."""
     ros = {"rclpy", "rcl_interfaces", "builtin_interfaces", "diagnostic_msgs", "geometry_msgs",
            "rosgraph_msgs", "sensor_msgs", "std_msgs"}
     distribution = {"yaml": "PyYAML"}                  # import name -> PyPI name, where they differ
@@ -121,4 +122,6 @@ def test_runtime_dependencies_are_what_runtime_code_imports():
                 and getattr(n.func, "id", "") == "setup")
     requires = next(k.value for k in call.keywords if k.arg == "install_requires")
     names = {re.split(r"[<>=\[ ]", ast.literal_eval(e))[0] for e in requires.elts} - {"setuptools"}
-    assert {distribution.get(m, m) for m in third_party} == names
+    extras = ast.literal_eval(next(k.value for k in call.keywords if k.arg == "extras_require"))
+    cluster = {re.split(r"[<>=\[ ]", e)[0] for e in extras["cluster"]}
+    assert {distribution.get(m, m) for m in third_party} == names | cluster

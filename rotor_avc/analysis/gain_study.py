@@ -18,7 +18,8 @@ controller and the synchronous response to one excitation is computed over speed
   open-loop peak speed, in percent;
 * **actuator forces**: the largest force amplitude over speed per actuator.
 
-Amplitudes are per unit excitation amplitude in SI (e.g. (m/s)/m for the bent rotor).
+Amplitudes are per unit excitation amplitude in SI (e.g. (m/s)/m for the bent rotor). The
+gains run on the study engine (:mod:`rotor_avc.studies`), one point per gain.
 """
 from __future__ import annotations
 
@@ -32,8 +33,10 @@ from ..config import Section
 from ..control.spec import CONTROLLER_KEYS, ContinuousController, controller_from_config
 from ..errors import ModelError
 from ..models.plant import LinearPlant
-from ..closed_loop.loop import ClosedLoop
 from ..closed_loop.frf import unbalance_frf
+from ..closed_loop.loop import ClosedLoop
+from ..studies.engine import StudySpec, run_study
+from ..studies.points import ValueList
 
 RPM_PER_RAD_S = 30.0 / np.pi
 #: the swept gain of each controller structure unless named otherwise
@@ -125,11 +128,43 @@ def _follow(curves: np.ndarray, speeds: np.ndarray, fraction: float) -> list[tup
     return list(zip(where, amp))
 
 
+@dataclass(frozen=True)
+class GainCurves:
+    """Study evaluator: ``{quantity: (|response| over speed, unit)}`` with the controller of one
+    gain on every actuator (gain 0: the loop open)."""
+
+    plant: LinearPlant
+    feedback: str
+    structure: str
+    gain_name: str
+    fixed: dict
+    speed_rad_s: np.ndarray
+    excitation: str
+    fields = None                    # arrays: an in-memory study
+
+    def prepare(self) -> LinearPlant:
+        return self.plant
+
+    def evaluate(self, plant: LinearPlant, point) -> dict:
+        value = point.values[self.gain_name]
+        ctrls = {} if value == 0.0 else {
+            a.id: study_controller(self.structure, self.feedback, self.gain_name, value, self.fixed)
+            for a in plant.actuators}
+        frf = unbalance_frf(ClosedLoop(plant, ctrls), self.speed_rad_s, [self.excitation])
+        return {quantity: (np.abs(frf.responses[key]), frf.units[key])
+                for key, (quantity, _) in frf.parts.items()}
+
+    def describe(self) -> dict:
+        return {"gain_curves": [self.plant.name, self.feedback, self.structure, self.gain_name,
+                                self.fixed, self.speed_rad_s.tolist(), self.excitation]}
+
+
 def gain_study(plant: LinearPlant, feedback: str, gains, speed_rpm, excitation: str,
                structure: str = "P", gain_name: str | None = None, fixed: dict | None = None,
                window_rpm: float = 200.0, peak_fraction: float = 0.25,
-               resonance_quantities=None) -> GainStudy:
-    """Sweep one controller gain on every actuator of ``plant`` (see the module docstring)."""
+               resonance_quantities=None, backend=None, batch_size=None) -> GainStudy:
+    """Sweep one controller gain on every actuator of ``plant`` (see the module docstring) on
+    the study engine (``backend``, ``batch_size``: :func:`rotor_avc.studies.engine.run_study`)."""
     gains = np.asarray(gains, float)
     speeds = np.asarray(speed_rpm, float)
     if gains.ndim != 1 or gains.size == 0 or np.any(~np.isfinite(gains)):
@@ -140,16 +175,21 @@ def gain_study(plant: LinearPlant, feedback: str, gains, speed_rpm, excitation: 
         raise ModelError(f"{plant.name} has no actuators to control")
     gain_name = gain_name or DEFAULT_SWEEP.get(structure, "kp")
     gains = np.concatenate([[0.0], gains[gains != 0.0]])
+    if gains.size > 1:                           # a bad controller fails here, not per point
+        study_controller(structure, feedback, gain_name, gains[-1], fixed or {})
+    evaluator = GainCurves(plant, feedback, structure, gain_name, fixed or {},
+                           speeds / RPM_PER_RAD_S, excitation)
+    run = run_study(StudySpec(ValueList(gain_name, gains), evaluator), backend,
+                    batch_size=batch_size, progress=False)
+    if run.failed:
+        o = run.failed[0]
+        raise ModelError(f"{gain_name} = {gains[o.index]:g}: {o.error}")
     curves: dict[str, list] = {}
     units: dict[str, str] = {}
-    for value in gains:
-        ctrls = {} if value == 0.0 else {
-            a.id: study_controller(structure, feedback, gain_name, value, fixed or {})
-            for a in plant.actuators}
-        frf = unbalance_frf(ClosedLoop(plant, ctrls), speeds / RPM_PER_RAD_S, [excitation])
-        for key, (quantity, _) in frf.parts.items():
-            curves.setdefault(quantity, []).append(np.abs(frf.responses[key]))
-            units[quantity] = frf.units[key]
+    for o in run.outcomes:
+        for quantity, (values, unit) in o.record.items():
+            curves.setdefault(quantity, []).append(values)
+            units[quantity] = unit
     arrays = {q: np.array(v) for q, v in curves.items()}
     study = GainStudy(feedback, structure, gain_name, gains, excitation, speeds, arrays, units)
     chosen = resonance_quantities or [q for q in arrays if q.startswith("bearing")]

@@ -13,62 +13,32 @@ A varied parameter is written ``PATHS=RANGE`` (command line ``--vary`` and the c
   With ``*=`` instead of ``=`` the values are factors on each path's base value (Sec. 4.4: the
   foundation stiffness times 0.2 ... 5).
 * ``RANGE``: ``START:STOP:N`` (linear), ``START:STOP:N:log`` or a list ``[v1, v2, ...]``.
+
+The grid points run on the study engine (:mod:`rotor_avc.studies`): in this process, in local
+processes or on a Dask cluster, with the same results.
 """
 from __future__ import annotations
 
-import copy
 import importlib
 import math
 from dataclasses import dataclass
 
 import numpy as np
-import yaml
 
 from ..config import Section
 from ..errors import ConfigError
 from ..machine import MODELS, Machine, machine_from_section
 from ..settings import ThresholdSettings, analysis_settings
+from ..studies.engine import StudySpec, run_study as run_points
+from ..studies.overrides import with_overrides
+from ..studies.points import Grid, Vary, parse_vary
 from .sampled_loop import machine_sampled_loop
 from .stability_threshold import ThresholdResult, stability_threshold
 
 RAD_S_PER_RPM = math.pi / 30.0
 
 
-# -- variants and overrides ---------------------------------------------------------------------
-def set_path(data: dict, path: str, value, field: str) -> None:
-    """Set ``data[a][b][c] = value`` for ``path = "a.b.c"``; every parent must exist."""
-    keys = path.split(".")
-    node = data
-    for depth, key in enumerate(keys[:-1]):
-        if not isinstance(node, dict) or key not in node or not isinstance(node[key], dict):
-            raise ConfigError(field, f"{path!r}: the config has no section "
-                                     f"{'.'.join(keys[:depth + 1])!r}",
-                              fix="give a dotted path of the config file, e.g. "
-                                  "foundation.stiffness_n_per_m.z")
-        node = node[key]
-    if not keys[-1]:
-        raise ConfigError(field, f"{path!r} is not a dotted config path", fix="remove the stray dot")
-    node[keys[-1]] = copy.deepcopy(value)
-
-
-def get_path(data: dict, path: str, field: str):
-    node = data
-    for key in path.split("."):
-        if not isinstance(node, dict) or key not in node:
-            raise ConfigError(field, f"the config has no value at {path!r}",
-                              fix="give the dotted path of an existing value (a factor `*=` needs one)")
-        node = node[key]
-    return node
-
-
-def with_overrides(cfg: Section, overrides: dict, field: str) -> Section:
-    """A copy of the config with dotted-path overrides applied in order."""
-    data = copy.deepcopy(cfg.data)
-    for path, value in overrides.items():
-        set_path(data, str(path), value, field)
-    return Section(data, "", cfg.source)
-
-
+# -- variants -----------------------------------------------------------------------------------
 def with_variants(cfg: Section, names) -> Section:
     """The config with its named ``variants`` applied in the order given."""
     known = cfg.section("variants", {})
@@ -117,71 +87,6 @@ def machine_threshold(cfg: Section) -> tuple[Machine, ThresholdResult]:
     return machine, result
 
 
-# -- varied parameters --------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Vary:
-    """One axis of a study: config paths that move together over ``values``."""
-
-    paths: tuple[str, ...]
-    values: np.ndarray
-    scale: bool = False
-
-    @property
-    def label(self) -> str:
-        return ",".join(self.paths) + (" (factor)" if self.scale else "")
-
-    def overrides(self, cfg: Section, value: float, field: str) -> dict:
-        if not self.scale:
-            return {p: float(value) for p in self.paths}
-        out = {}
-        for p in self.paths:
-            base = get_path(cfg.data, p, field)
-            if isinstance(base, bool) or not isinstance(base, (int, float)):
-                raise ConfigError(field, f"{p!r} is not a number and cannot be scaled",
-                                  fix="use `=` with values instead of `*=`")
-            out[p] = float(base) * float(value)
-        return out
-
-
-def parse_vary(text: str, field: str = "--vary") -> Vary:
-    """``PATHS=RANGE`` or ``PATHS*=RANGE`` (see the module docstring) -> :class:`Vary`."""
-    fix = ("write PATH[,PATH...]=START:STOP:N[:log] or PATH*=... or PATH=[v1, v2, ...], e.g. "
-           "foundation.stiffness_n_per_m.z=2.0e+7:7.5e+8:25")
-    if "=" not in text:
-        raise ConfigError(field, f"{text!r} has no `=`", fix=fix)
-    lhs, rhs = text.split("=", 1)
-    scale = lhs.endswith("*")
-    paths = tuple(p.strip() for p in lhs.rstrip("*").split(","))
-    if not all(paths):
-        raise ConfigError(field, f"{text!r}: empty config path", fix=fix)
-    rhs = rhs.strip()
-    if rhs.startswith("["):
-        try:
-            values = yaml.safe_load(rhs)
-            values = np.array([float(v) for v in values])
-        except (yaml.YAMLError, TypeError, ValueError):
-            raise ConfigError(field, f"{rhs!r} is not a list of numbers", fix=fix) from None
-    else:
-        parts = rhs.split(":")
-        try:
-            if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
-                raise ValueError
-            start, stop, n = float(parts[0]), float(parts[1]), int(parts[2])
-        except ValueError:
-            raise ConfigError(field, f"{rhs!r} is not START:STOP:N[:log]", fix=fix) from None
-        if n < 1 or not (math.isfinite(start) and math.isfinite(stop)):
-            raise ConfigError(field, f"{rhs!r}: need finite START, STOP and N >= 1", fix=fix)
-        if len(parts) == 4:
-            if start <= 0 or stop <= 0:
-                raise ConfigError(field, f"{rhs!r}: a log range needs START, STOP > 0", fix=fix)
-            values = np.geomspace(start, stop, n)
-        else:
-            values = np.linspace(start, stop, n)
-    if values.size == 0 or not np.all(np.isfinite(values)):
-        raise ConfigError(field, f"{text!r} gives no finite values", fix=fix)
-    return Vary(paths, values, scale)
-
-
 def study_from_config(cfg: Section, name: str) -> tuple[Section, list[Vary]]:
     """The config of a named study (its variants applied) and its varied parameters."""
     studies = cfg.section("studies", {})
@@ -203,39 +108,57 @@ def study_from_config(cfg: Section, name: str) -> tuple[Section, list[Vary]]:
 
 
 # -- running a study ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ThresholdPoint:
+    """Study evaluator: the threshold summary and status of the config with a point's
+    overrides (``status`` ``failed (...)`` for a point whose evaluation raised)."""
+
+    cfg: Section
+    field: str = "--vary"
+    fields = {"threshold_rpm": float, "whirl_rad_s": float, "critical_mode": int, "status": str}
+
+    def prepare(self) -> Section:
+        return self.cfg
+
+    def evaluate(self, cfg: Section, point) -> dict:
+        result = machine_threshold(with_overrides(cfg, point.overrides, self.field))[1]
+        return {**result.summary(), "status": result.status}
+
+    def describe(self) -> dict:
+        return {"threshold": self.cfg.data}
+
+
 @dataclass
 class StudyResult:
-    """Thresholds over a 1-D or 2-D parameter grid: ``results[i]`` or ``results[i, j]`` for
-    ``varies[0].values[i]`` (and ``varies[1].values[j]``)."""
+    """Thresholds over a 1-D or 2-D parameter grid: ``records[i]`` or ``records[i, j]`` (the
+    threshold summary and status) for ``varies[0].values[i]`` (and ``varies[1].values[j]``)."""
 
     varies: list[Vary]
-    results: np.ndarray             # object array of ThresholdResult
+    records: np.ndarray             # object array of dicts
 
-    def _field(self, fn) -> np.ndarray:
-        return np.vectorize(fn, otypes=[float])(self.results)
+    def _field(self, key: str) -> np.ndarray:
+        return np.vectorize(lambda r: np.nan if r[key] is None else r[key],
+                            otypes=[float])(self.records)
 
     @property
     def threshold_rpm(self) -> np.ndarray:
         """Thresholds in rpm; NaN where none was found (see :attr:`status`)."""
-        return self._field(lambda r: np.nan if r.summary()["threshold_rpm"] is None
-                           else r.threshold_rpm)
+        return self._field("threshold_rpm")
 
     @property
     def whirl_rad_s(self) -> np.ndarray:
-        return self._field(lambda r: np.nan if r.summary()["whirl_rad_s"] is None else r.whirl_rad_s)
+        return self._field("whirl_rad_s")
 
     @property
     def status(self) -> np.ndarray:
-        return np.vectorize(lambda r: r.status, otypes=[object])(self.results)
+        return np.vectorize(lambda r: r["status"], otypes=[object])(self.records)
 
     def rows(self) -> list[dict]:
         """One dict per grid point: the varied values, then the threshold summary and status."""
         out = []
-        for idx in np.ndindex(self.results.shape):
-            r = self.results[idx]
+        for idx in np.ndindex(self.records.shape):
             row = {v.label: float(v.values[i]) for v, i in zip(self.varies, idx)}
-            row.update(r.summary())
-            row["status"] = r.status
+            row.update(self.records[idx])
             out.append(row)
         return out
 
@@ -247,16 +170,20 @@ class StudyResult:
         return self.rows()[int(np.nanargmax(n))]
 
 
-def run_study(cfg: Section, varies: list[Vary], field: str = "--vary") -> StudyResult:
-    """Run the threshold procedure at every point of the grid spanned by one or two ``varies``."""
+def run_study(cfg: Section, varies: list[Vary], field: str = "--vary", backend=None,
+              batch_size: int | None = None, out=None, progress: bool = False) -> StudyResult:
+    """Run the threshold procedure at every point of the grid spanned by one or two ``varies``
+    on the study engine (``backend``, ``batch_size``, ``out``: the results folder, resumed;
+    :func:`rotor_avc.studies.engine.run_study`)."""
     if not 1 <= len(varies) <= 2:
         raise ConfigError(field, f"a study varies one or two parameters (got {len(varies)})",
                           fix="give --vary once or twice (comma-join paths that move together)")
-    shape = tuple(len(v.values) for v in varies)
-    results = np.empty(shape, dtype=object)
-    for idx in np.ndindex(shape):
-        overrides = {}
-        for v, i in zip(varies, idx):
-            overrides.update(v.overrides(cfg, v.values[i], field))
-        results[idx] = machine_threshold(with_overrides(cfg, overrides, field))[1]
-    return StudyResult(list(varies), results)
+    grid = Grid(varies, cfg, field)
+    run = run_points(StudySpec(grid, ThresholdPoint(cfg, field)), backend, out, batch_size,
+                     progress)
+    records = np.empty(grid.shape, dtype=object)
+    for o in run.outcomes:
+        records[np.unravel_index(o.index, grid.shape)] = o.record or {
+            "threshold_rpm": None, "whirl_rad_s": None, "critical_mode": None,
+            "status": f"failed ({o.error})"}
+    return StudyResult(list(varies), records)

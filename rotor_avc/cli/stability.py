@@ -11,6 +11,7 @@ from ..config import load_config
 from ..errors import ConfigError
 from ..reports.stability_files import plot_campbell, plot_map, write_study_rows, write_threshold
 from ..reports.stability_report import write_stability_study_html
+from ..studies.backends import add_backend_arguments, backend_from_args
 
 NAME = "stability"
 HELP = ("Threshold of stability of a machine with loss-factor and internal damping (eigenvalues "
@@ -32,10 +33,12 @@ def add_arguments(p) -> None:
                    help="vary a dotted config path (once or twice for a 2-D map); comma-join paths "
                         "that take the same value, `*=` for factors on the base values, "
                         "START:STOP:N:log for log spacing or [v1,v2,...] for a list")
-    p.add_argument("--out", type=Path, help="folder for threshold.json / thresholds.csv and plots")
+    p.add_argument("--out", type=Path, help="folder for threshold.json / thresholds.csv and plots "
+                                            "(a map's points also go to DIR/points/, resumed)")
     p.add_argument("--json", action="store_true",
                    help='print {"threshold_rpm", "whirl_rad_s", "critical_mode"} (threshold_rpm null '
                         'when none is found); with --vary/--study {"points": [...], "maximum": ...}')
+    add_backend_arguments(p)
 
 
 def run(args) -> int:
@@ -75,7 +78,9 @@ def run(args) -> int:
 
 
 def _run_study(cfg, varies, args) -> int:
-    study = run_study(cfg, varies)
+    study = run_study(cfg, varies, backend=backend_from_args(args.workers, args.scheduler),
+                      batch_size=args.batch_size, out=args.out and args.out / "points",
+                      progress=not args.json)
     rows = study.rows()
     if args.json:
         print(json.dumps({"points": rows, "maximum": study.maximum()}, indent=1))
@@ -85,7 +90,7 @@ def _run_study(cfg, varies, args) -> int:
         for row in rows:
             vals = " | ".join(f"{row[lab]:.4g}" for lab in labels)
             if row["threshold_rpm"] is None:
-                print(f"{vals} | {STATUSES[row['status']]}")
+                print(f"{vals} | {STATUSES.get(row['status'], row['status'])}")
             else:
                 print(f"{vals} | {row['threshold_rpm']:.1f} | {row['whirl_rad_s']:.3f} | "
                       f"{row['critical_mode']}")

@@ -1,7 +1,11 @@
 """``rotor-avc study``: controller gain sweeps -- resonance shifts, reductions, actuator forces
-(seed 001 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page."""
+(seed 001 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page; ``rotor-avc study MODE
+TARGET``: the study modes of :data:`MODES` (``robustness``: the Monte-Carlo study of
+:mod:`rotor_avc.cli.robustness`; ``strategies``: the vibration-control strategies compared,
+:mod:`rotor_avc.cli.strategies`)."""
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -9,26 +13,36 @@ import numpy as np
 from ..analysis.gain_study import DEFAULT_SWEEP, GainStudy, gain_study
 from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
-from ..errors import ConfigError, ModelError
+from ..errors import ConfigError
 from ..machine import load_machine
 from ..reports.gain_study_files import write_gain_study
+from ..studies.backends import add_backend_arguments, backend_from_args
+from . import robustness, strategies
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
         "response over speed per gain, the resonance speeds and reductions versus gain and the "
-        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13; or `study strategies "
-        "SCENARIO`: no control, feedback, harmonic control (each law), combinations, compared.")
+        "actuator forces (CSV + PNG), as in Werner 2019's Figs. 5-13. `study robustness CONFIG "
+        "--sample PATH=DIST --n N`: probability of stability and distributions of peak response "
+        "and stability margin under sampled parameters. `study strategies SCENARIO`: no control, "
+        "feedback, harmonic control (each law), combinations, compared.")
 EXAMPLE = ("rotor-avc study sleeve_bearing_motor --feedback velocity --gains 1e4:1e6:20 "
-           "--out out/study")
+           "--out out/study\n  rotor-avc study robustness foot_mount_case3 --sample "
+           "'foundation.stiffness_n_per_m.z*=normal(1, 0.15)' --n 1000 --out out/robust")
+
+#: `rotor-avc study MODE TARGET ...`: mode name -> its module (``add_arguments``, ``OPTIONS``: the
+#: options only it takes, ``run``)
+MODES = {"robustness": robustness, "strategies": strategies}
+#: options of the gain study (argparse dest -> option), refused by the modes
+GAIN_OPTIONS = {"feedback": "--feedback", "gains": "--gains", "structure": "--structure",
+                "sweep": "--sweep", "fixed": "--fixed", "excitation": "--excitation"}
 
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name "
-                                  "(sleeve_bearing_motor); its controllers are replaced -- or "
-                                  "the word `strategies` followed by a scenario")
-    p.add_argument("scenario", nargs="?",
-                   help="with `strategies`: a scenario with a `harmonic:` section "
-                        "(scenario_harmonic_case3_steady)")
+                                  "(sleeve_bearing_motor); its controllers are replaced. Or a "
+                                  "mode and its input: `robustness CONFIG`, `strategies SCENARIO`")
+    p.add_argument("target", nargs="?", metavar="CONFIG", help=argparse.SUPPRESS)
     p.add_argument("--feedback", choices=list(FEEDBACK_ORDER), action="append",
                    help="feedback kind (repeatable; default: every kind in the config's "
                         "analysis.study.gains)")
@@ -36,14 +50,26 @@ def add_arguments(p) -> None:
                    help="START:STOP:N, START:STOP:N:log or [v1, v2, ...] in SI (N/m, N s/m, kg "
                         "for P on displacement, velocity, acceleration); the open loop (0) is "
                         "always added (default: analysis.study.gains of the feedback kind)")
-    p.add_argument("--structure", default="P", choices=list(DEFAULT_SWEEP),
+    p.add_argument("--structure", choices=list(DEFAULT_SWEEP),
                    help="controller structure (default P)")
     p.add_argument("--sweep", metavar="GAIN", help="the swept gain (default kp; ki for I)")
     p.add_argument("--fixed", action="append", default=[], metavar="NAME=VALUE",
                    help="value of a gain that is not swept (e.g. kd=2.0e+3 for a PD sweep)")
     p.add_argument("--excitation", help="excitation (default analysis.study.excitation)")
-    p.add_argument("--out", type=Path, default=Path("out/study"), help="output folder")
+    p.add_argument("--out", type=Path, help="output folder (default out/study, for the robustness "
+                                            "study out/robustness)")
     p.add_argument("--no-plots", action="store_true", help="write only the CSV files")
+    for mode in MODES.values():
+        mode.add_arguments(p)
+    add_backend_arguments(p)
+
+
+def _refuse(args, options: dict, study: str) -> None:
+    given = [opt for dest, opt in options.items() if getattr(args, dest) not in (None, [])]
+    if given:
+        verb = "does" if len(given) == 1 else "do"
+        raise ConfigError(given[0], f"{', '.join(given)} {verb} not apply to {study}",
+                          fix="leave it out (rotor-avc study --help lists the options of each)")
 
 
 def _fixed(items: list[str]) -> dict[str, float]:
@@ -58,40 +84,23 @@ def _fixed(items: list[str]) -> dict[str, float]:
     return out
 
 
-def run_strategies(args) -> int:
-    """``rotor-avc study strategies SCENARIO``: the strategy comparison and its report."""
-    from ..config import load_config
-    from ..harmonic.strategy_study import strategy_study
-    from ..scenario import scenario_from_config
-    from ..reports.strategy_report import rows, write_report
-    if not args.scenario:
-        raise ConfigError("scenario", "missing after `strategies`",
-                          fix="e.g. rotor-avc study strategies scenario_harmonic_case3_steady")
-    cfg = load_config(args.scenario)
-    try:
-        results, sensors = strategy_study(cfg.data, scenario_from_config, cfg.source)
-    except ModelError as exc:
-        raise ConfigError("harmonic", str(exc), source=cfg.source) from None
-    out = args.out if args.out != Path("out/study") else Path("out/strategies")
-    path = write_report(results, sensors, out, cfg.source, plot=not args.no_plots)
-    head, body = rows(results, sensors)
-    widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
-    for line in [head, *body]:
-        print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)))
-    for r in results:
-        if r.peak_reduction_db:
-            print(f"{r.name}: 1x peak reduction " + ", ".join(
-                f"{n} {f:.1f} Hz {v:.1f} dB" for (n, f), v in r.peak_reduction_db.items()))
-    print(f"report: {path}")
-    return 0
-
-
 def run(args) -> int:
-    if args.config == "strategies":
-        return run_strategies(args)
-    if args.scenario:
-        raise ConfigError("scenario", f"unexpected second argument {args.scenario!r}",
-                          fix="give one machine config, or `strategies SCENARIO`")
+    mode = MODES.get(args.config)
+    which = f"the {args.config} study" if mode else "a gain study"
+    for other in MODES.values():
+        if other is not mode:
+            _refuse(args, other.OPTIONS, which)
+    if mode is not None:
+        if args.target is None:
+            raise ConfigError("CONFIG", f"no machine config given after `{args.config}`",
+                              fix=f"write rotor-avc study {args.config} CONFIG ...")
+        _refuse(args, GAIN_OPTIONS, which)
+        return mode.run(args)
+    if args.target is not None:
+        raise ConfigError("CONFIG", "a gain study takes one config",
+                          fix="write rotor-avc study MODE CONFIG for a study mode (modes: "
+                              + ", ".join(MODES) + ")")
+    args.out = args.out or Path("out/study")
     machine = load_machine(args.config)
     study_cfg = machine.analysis.study
     sec = machine.config.section("analysis", {}).section("study", {})
@@ -113,10 +122,11 @@ def run(args) -> int:
             sec.section("gains", {}).raw(kind)               # raises "missing" with the fix
         gains = (parse_vary("gain=" + args.gains, "--gains").values if args.gains
                  else np.array(getattr(study_cfg.gains, kind)))
-        study = gain_study(machine.plant, kind, gains, speeds, excitation, args.structure,
+        study = gain_study(machine.plant, kind, gains, speeds, excitation, args.structure or "P",
                            args.sweep, _fixed(args.fixed),
                            study_cfg.window_rpm, study_cfg.peak_fraction,
-                           None if study_cfg.resonances_of is None else list(study_cfg.resonances_of))
+                           None if study_cfg.resonances_of is None else list(study_cfg.resonances_of),
+                           backend_from_args(args.workers, args.scheduler), args.batch_size)
         stem = args.out / f"{machine.plant.name}_{kind}"
         for path in write_gain_study(study, stem, not args.no_plots):
             print(f"wrote {path}")

@@ -275,26 +275,31 @@ class Recorder(Node):
             for st in msg.status:
                 if not st.name.endswith(m.PUBLISHED_SUFFIX):
                     continue
-                if any(kv.key == m.PROCESS_KEY and kv.value == m.PROCESS_ID for kv in st.values):
-                    continue                 # this process: counted from its publishers
+                here = any(kv.key == m.PROCESS_KEY and kv.value == m.PROCESS_ID
+                           for kv in st.values)
                 node = st.name[:-len(m.PUBLISHED_SUFFIX)]
                 for kv in st.values:
                     ch = self.channels.get(kv.key)
-                    if ch is not None and kv.value.isdigit():
-                        count = int(kv.value)
-                        if ch.name == "/diagnostics":     # counted from its first report on
-                            first = ch.first_report.setdefault(node, count)
-                            count = count - first + 1
-                        ch.published_remote[node] = max(count, ch.published_remote.get(node, 0))
+                    if ch is None or not kv.value.isdigit():
+                        continue
+                    count = int(kv.value)
+                    if ch.name == "/diagnostics":  # from the node's first report received on
+                        first = ch.first_report.setdefault(node, count)
+                        count = count - first + 1
+                    elif here:                     # this process: counted from its publishers
+                        continue
+                    ch.published_remote[node] = max(count, ch.published_remote.get(node, 0))
 
     def published(self) -> dict[str, int | None]:
         """Messages published per topic, from the publishers' side: by the counted publishers of
         this process since the recorder was created, plus what the nodes of other processes
         reported on /diagnostics; None when no publisher reported. ``/diagnostics`` itself is
-        subscribed volatile (tools outside the package publish it so) and a node's count on it
-        runs from the first of its reports the recorder received: what a node said before the
-        recording began is not the recording's loss."""
+        subscribed volatile (tools outside the package publish it so) and every node's count
+        on it -- this process's too -- runs from the first to the latest of its reports the
+        recorder took: messages of one publisher arrive in order, so all between were taken,
+        and what a node said before the recording began is not the recording's loss."""
         local = {t: n - self._baseline.get(t, 0) for t, n in taps.process_counts().items()}
+        local.pop("/diagnostics", None)          # every node's count comes from its reports
         out = {}
         for name, ch in self.channels.items():
             if name in local or ch.published_remote:

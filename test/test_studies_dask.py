@@ -1,0 +1,127 @@
+"""A real Dask cluster on 127.0.0.1 -- a ``dask scheduler`` and two ``dask worker`` processes
+started and ended by the test: a study gives the same bytes as the serial run, and a worker
+killed mid-study loses no point and computes none twice."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from rotor_avc.analysis.robustness import robustness_point
+from rotor_avc.config import load_config
+from rotor_avc.studies.backends import DaskBackend, SerialBackend
+from rotor_avc.studies.engine import StudySpec, run_study
+from rotor_avc.studies.points import Sample, parse_sample
+
+distributed = pytest.importorskip("distributed")
+
+ROOT = Path(__file__).resolve().parents[1]
+START_TIMEOUT_S = 60.0
+
+
+def _spawn(args, log: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "OPENBLAS_NUM_THREADS": "1"}
+    return subprocess.Popen([sys.executable, "-m"] + args, env=env, stdout=log.open("w"),
+                            stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    """``(address, {name: worker process})``: a scheduler and two single-threaded workers
+    without nannies (a killed worker stays dead), all on 127.0.0.1, ready when returned."""
+    info = tmp_path / "scheduler.json"
+    procs = [_spawn(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+                     "--no-dashboard", "--scheduler-file", str(info)], tmp_path / "scheduler.log")]
+    workers = {}
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not info.exists() and time.monotonic() < deadline and procs[0].poll() is None:
+            time.sleep(0.05)            # the scheduler writes the file once it listens
+        assert info.exists(), (tmp_path / "scheduler.log").read_text()
+        for name in ("w1", "w2"):
+            workers[name] = _spawn(["distributed.cli.dask_worker", "--scheduler-file", str(info),
+                                    "--host", "127.0.0.1", "--nthreads", "1", "--no-nanny",
+                                    "--no-dashboard", "--name", name], tmp_path / f"{name}.log")
+            procs.append(workers[name])
+        with distributed.Client(scheduler_file=str(info), timeout=START_TIMEOUT_S) as client:
+            client.wait_for_workers(2, timeout=START_TIMEOUT_S)
+            address = client.scheduler.address
+        yield address, workers
+    finally:
+        for proc in reversed(procs):
+            _stop(proc)
+
+
+def spec(n: int) -> StudySpec:
+    cfg = load_config("foot_mount_case3")
+    sample = Sample([parse_sample("foundation.stiffness_n_per_m.z*=normal(1, 0.15)"),
+                     parse_sample("machine.stator_mass_kg*=uniform(0.9, 1.1)")], n, 5, cfg)
+    return StudySpec(sample, robustness_point(cfg, [float(f) for f in range(1, 251)]))
+
+
+def _same_files(a: Path, b: Path) -> None:
+    for name in ("points.csv", "points.npz"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.mark.timeout(180)
+def test_a_dask_cluster_gives_the_serial_bytes(cluster, tmp_path):
+    address, _ = cluster
+    study = spec(16)
+    run_study(study, SerialBackend(), out=tmp_path / "serial", progress=False)
+    backend = DaskBackend(address)
+    try:
+        assert backend.workers == 2
+        run = run_study(study, backend, out=tmp_path / "dask", batch_size=2, progress=False)
+        who = backend.client.run(lambda: __import__("os").getpid())
+    finally:
+        backend.close()
+    assert run.computed == 16 and not run.failed
+    assert len(set(who.values())) == 2
+    _same_files(tmp_path / "serial", tmp_path / "dask")
+
+
+@pytest.mark.timeout(180)
+def test_a_worker_killed_mid_study_loses_no_point(cluster, tmp_path):
+    address, workers = cluster
+    study = spec(40)
+    run_study(study, SerialBackend(), out=tmp_path / "serial", progress=False)
+    arrived, killed_with = [], []
+    backend = DaskBackend(address)
+
+    def kill_w1_while_it_works(outcome):
+        arrived.append(outcome.index)
+        if len(arrived) >= 6 and not killed_with:         # every point runs on the cluster
+            w1 = next(a for a, w in backend.client.scheduler_info()["workers"].items()
+                      if w["name"] == "w1")
+            in_flight = backend.client.processing()[w1]
+            if in_flight:
+                os.killpg(workers["w1"].pid, signal.SIGKILL)
+                killed_with.append(len(in_flight))
+
+    try:
+        run = run_study(study, backend, out=tmp_path / "dask", batch_size=1, progress=False,
+                        on_outcome=kill_w1_while_it_works)
+        left = backend.workers
+    finally:
+        backend.close()
+    assert killed_with and len(arrived) == 40
+    assert workers["w1"].wait(10) == -signal.SIGKILL and left == 1
+    assert sorted(arrived) == list(range(40)) and not run.failed
+    journal = (tmp_path / "dask" / "journal.csv").read_text().splitlines()[1:]
+    assert sorted(int(line.split(",")[0]) for line in journal) == list(range(40))
+    _same_files(tmp_path / "serial", tmp_path / "dask")
