@@ -1,4 +1,4 @@
-"""Offline comparison of a recorded run with the analytical models (issue 6, DESIGN.md section 5).
+"""Offline comparison of a recorded run with the analytical models (DESIGN.md section 5).
 
 Everything comes from the bag (:func:`rotor_avc.compare.recorded_run.read_run`): the scenario is
 rebuilt from the bag's configuration, so both models use the simulator's plant, controllers,
@@ -23,7 +23,7 @@ power-of-two segments giving about 16 averages) from the force to the foot accel
 bearing-housing velocities, per dwell of at least :data:`MIN_BROADBAND_SAMPLES` samples, against
 :mod:`rotor_avc.analysis.transfer` at the dwell's speed with ``w_F`` frozen as the run had it.
 
-**Checks** against the sampled-loop model (the acceptance of issue 6: a lockstep bag agrees within
+**Checks** against the sampled-loop model (the acceptance of a recording: a lockstep bag agrees within
 0.5 dB away from resonances and 2 dB at them, resonance frequencies within 1 %), each the worst
 case over channels and speeds: 1x magnitude error away from resonances (0.5 dB) and at them
 (2 dB), the RMS over speed of a channel's 1x error in dB (0.5 dB), resonance frequency (1 %) and

@@ -19,7 +19,7 @@ The measurement matrix ``R`` gives the rows of ``q``, ``q'`` and ``q'' = A_low x
 u_{k-1} + f_e(t_k))`` from ``[x_k | u_{k-1} | w(t_k)]``; ``S = [Phi | Gamma_u | G_w]`` acts on
 ``[x_k | u_k | w_mid]``. Folded together, ``BIG`` maps
 ``[x_k | u_k | w_mid | w(t_k+1)]`` to ``[x_k+1 | y_k+1]``: one mat-vec per sample at constant
-speed (the hint of issue 4: the rotating excitation enters as input columns, not as a solve).
+speed (the rotating excitation enters as input columns, not as a solve).
 
 Between nodes both are interpolated linearly in ``Omega``. The nodes are placed (bisection) so
 that the speed-dependent matrices ``D(w_F) + Omega G1`` and ``C + Omega/w_F N`` (+ speed terms)
