@@ -7,7 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from ros_helpers import make_executor, node_process, params, rclpy, spin_until, stop  # noqa: F401
+from ros_helpers import (make_executor, node_process, params, rclpy, spin_until,  # noqa: F401
+                         stop, wait_for_nodes)
 from test_ros_graph import FEET, scenario_file
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -203,8 +204,9 @@ def test_realtime_mode_reports_loop_timing(tmp_path, policy):
     ("plant_simulator", ("-p", "scenario:=scenario_case3_steady", "-p", "duration_s:=60.0")),
 ])
 def test_nodes_exit_cleanly_on_signals(module, args, sig):
-    proc = node_process(module, *args)
-    time.sleep(4.0)                                             # running (waiting for peers)
+    name = f"{module}_{sig.name.lower()}"
+    proc = node_process(module, *args, "-r", f"__node:={name}")
+    assert wait_for_nodes([name], procs=[proc])                 # running (waiting for peers)
     assert proc.poll() is None
     proc.send_signal(sig)
     out, _ = proc.communicate(timeout=20)
