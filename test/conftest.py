@@ -40,7 +40,8 @@ KINDS = {
                      "sleeve_bearing_whirl_iteration", "stability_time_domain", "studies",
                      "studies_dask"),
     "ros_integration": ("colcon", "compare_ros", "graph_recording", "node_signals",
-                        "nodes_messages", "packaging", "recorder", "replay", "ros_faults",
+                        "nodes_messages", "packaging", "plotjuggler_arrays", "recorder", "replay",
+                        "ros_faults",
                         "ros_graph"),
 }
 KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in names}
