@@ -31,6 +31,7 @@ KINDS = {
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",
               "stability_model", "stability_study", "stability_threshold"),
     "cross_method": ("active_bearing_synchronous", "api684", "bag_cdr", "bag_msgdefs",
+                     "foxglove_decode",
                      "bag_roundtrip", "balancing_foot_mount", "balancing_rls", "campbell",
                      "closed_loop_formulations", "compare_lockstep", "compare_resonances",
                      "compare_synthetic", "compare_transfer", "control_discretize",

@@ -14,7 +14,6 @@ from pathlib import Path
 from unittest import mock
 
 import pytest
-import yaml
 
 from rotor_avc.config import find_config
 from rotor_avc.nodes.graph_nodes import RECORDER
@@ -216,16 +215,3 @@ def test_default_bag_name_is_new_per_launch(monkeypatch):
     path = recorder.kwargs["parameters"][0]["path"]
     assert path.startswith("scenario_reference_") and path.endswith(".mcap")
 
-
-def test_ros_params_file_sets_declared_parameters():
-    """config/ros_case3.yaml (for ``ros2 run ... --params-file``) sets only declared, valid
-    parameters of the nodes it names (``/**``: every node)."""
-    params = yaml.safe_load((ROOT / "config" / "ros_case3.yaml").read_text())
-    executables = {"plant_simulator", "recorder", "foot_controller"}
-    for node, section in params.items():
-        targets = executables if node == "/**" else {node}
-        for executable in targets:
-            table = declared_params(executable)
-            for key, value in section["ros__parameters"].items():
-                assert key in table, f"{node}: parameter {key!r} is not declared by {executable}"
-                table[key].check(value, node)
