@@ -104,7 +104,8 @@ def test_foxglove_layout():
                                                                      "actuator_force")}
     assert feet | {"/avc/rotor/joint_state", "/avc/plant/observables", "/diagnostics",
                    "/avc/balancer/estimate", "/avc/harmonic/status"} <= topics
-    assert {"/avc/rotor/joint_state.velocity[0]", "/avc/rotor/joint_state.position[0]"} <= set(paths)
+    shaft = {"/avc/rotor/joint_state.velocity[0]", "/avc/rotor/joint_state.position[0]"}
+    assert shaft <= set(paths)
     kinds = {key.split("!")[0] for key in panels}
     assert {"Plot", "RawMessages", "DiagnosticSummary"} <= kinds
 

@@ -76,7 +76,8 @@ def check_array_size(name: str, labels: Sequence[str]) -> None:
         raise BagError("(stream)", f"{name}: {len(labels)} elements ({labels[0]} ... "
                        f"{labels[-1]}), more than the {MAX_ARRAY_ELEMENTS} that PlotJuggler's "
                        "ROS 2 parser reads (it would clamp or drop the array)",
-                       fix="use a model with fewer outputs, sensors or actuators")
+                       fix="configure fewer of what the names count (the model's outputs, "
+                           "the harmonic controller's sensors, actuators or harmonics)")
 
 
 def topic(name: str, namespace: str = NAMESPACE) -> str:
