@@ -5,17 +5,22 @@ test/js/decode.mjs under node. Every message of every channel is decoded there, 
 types, counts, log times and every decoded value equal what rotor_avc's BagReader reads; no
 message leaves bytes the schema does not account for. Bags: the committed reference bag, a fresh
 ``rotor-avc simulate`` bag with the balancer, a bag recorded by the ROS graph (recorder node,
-diagnostics) and a recovered truncated recording. Skipped where node or npm is missing; the
-libraries are installed once with ``npm ci`` into test/js/node_modules (package-lock.json)."""
+diagnostics) and a recovered truncated recording. The layouts' paths (layouts/) read numbers
+from these decoded messages. Skipped where node or npm is missing; the libraries are installed
+once with ``npm ci`` into test/js/node_modules (package-lock.json)."""
 import json
 import math
+import re
 import shutil
+import xml.etree.ElementTree as ET
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+
+from test_layouts import FOXGLOVE, PLOTJUGGLER, _foxglove_paths, _plotjuggler_series
 
 from rotor_avc.bag import BagReader, recover_bag
 from rotor_avc.cli import main
@@ -80,6 +85,11 @@ def bags(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def decoded(foxglove, bags) -> dict:
+    return foxglove(bags.values())
+
+
+@pytest.fixture(scope="module")
 def graph_bag(tmp_path_factory):
     """A bag written by the recorder node in a (composed, short) graph run with the balancer."""
     pytest.importorskip("rclpy")
@@ -125,8 +135,7 @@ def assert_same_as_bag_reader(path: Path, decoded: dict) -> dict[str, int]:
     return {t: topics[t]["count"] for t in topics}
 
 
-def test_simulated_reference_and_recovered_bags_decode_alike(foxglove, bags):
-    decoded = foxglove(bags.values())
+def test_simulated_reference_and_recovered_bags_decode_alike(decoded, bags):
     counts = {name: assert_same_as_bag_reader(path, decoded[str(path)])
               for name, path in bags.items()}
     assert "/avc/balancer/command" in counts["simulate"]
@@ -143,3 +152,44 @@ def test_graph_recorded_bag_decodes_alike(foxglove, graph_bag):
                 for s in m["status"]}
     assert "plant_simulator: loop" in statuses
     print("graph", counts)
+    # PlotJuggler's series of /diagnostics (hardware id / status name / key) and of JointState
+    # (joint name / position, velocity) are in the recorded messages, the values numbers
+    values = {(s["hardware_id"], s["name"], kv["key"]): kv["value"]
+              for _, m in decoded["topics"]["/diagnostics"]["messages"] for s in m["status"]
+              for kv in s["values"]}
+    joints = {n for _, m in decoded["topics"]["/avc/rotor/joint_state"]["messages"]
+              for n in m["name"]}
+    for curve in ET.parse(PLOTJUGGLER).getroot().iter("curve"):
+        topic, msg_type, rest = _plotjuggler_series(curve.get("name"))
+        if msg_type == "diagnostic_msgs/msg/DiagnosticArray":
+            float(values[rest[0], "/".join(rest[1:-1]), rest[-1]])
+        elif msg_type == "sensor_msgs/msg/JointState":
+            assert rest[0] in joints
+
+
+def _value(message, parts: list[str]):
+    for part in parts:
+        name, index = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", part).groups()
+        message = message[name] if index is None else message[name][int(index)]
+    return message
+
+
+def test_layout_paths_give_numbers_in_the_decoded_bags(decoded, bags):
+    """Every Foxglove plot path and every PlotJuggler curve of a plain field whose topic is in
+    the reference or the simulate bag reads a number from each of its messages there."""
+    topics = {}
+    for name in ("reference", "simulate"):
+        topics.update(decoded[str(bags[name])]["topics"])
+    fields = [(path.split(".")[0], path.split(".")[1:])
+              for path in _foxglove_paths(json.loads(FOXGLOVE.read_text())) if "." in path]
+    for curve in ET.parse(PLOTJUGGLER).getroot().iter("curve"):
+        topic, msg_type, rest = _plotjuggler_series(curve.get("name"))
+        if msg_type not in ("sensor_msgs/msg/JointState", "diagnostic_msgs/msg/DiagnosticArray"):
+            fields.append((topic, rest))
+    checked = 0
+    for topic, parts in fields:
+        if topic in topics:
+            values = [_value(m, parts) for _, m in topics[topic]["messages"]]
+            assert all(isinstance(v, (int, float)) for v in values), (topic, parts)
+            checked += 1
+    assert checked >= 10
