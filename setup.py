@@ -16,6 +16,9 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
+        ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
+        ("share/" + package_name + "/layouts",
+         sorted(glob("layouts/*.json") + glob("layouts/*.xml"))),
     ],
     package_data={package_name: []},
     install_requires=[

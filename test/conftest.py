@@ -23,6 +23,7 @@ KINDS = {
     "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "balancing_cli",
              "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
              "config_errors", "config_keys", "control_block", "control_cli", "import_layers",
+             "launch_file", "layouts",
              "bag_sequence", "nodes_lockstep", "nodes_timing", "sim_profile", "sim_scenario",
              "sleeve_bearing_cli", "suite_kinds"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
@@ -30,6 +31,7 @@ KINDS = {
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",
               "stability_model", "stability_study", "stability_threshold"),
     "cross_method": ("active_bearing_synchronous", "api684", "bag_cdr", "bag_msgdefs",
+                     "foxglove_decode",
                      "bag_roundtrip", "balancing_foot_mount", "balancing_rls", "campbell",
                      "closed_loop_formulations", "compare_lockstep", "compare_resonances",
                      "compare_synthetic", "compare_transfer", "control_discretize",
@@ -39,7 +41,8 @@ KINDS = {
                      "sleeve_bearing_whirl_iteration", "stability_time_domain", "studies",
                      "studies_dask"),
     "ros_integration": ("colcon", "compare_ros", "graph_recording", "node_signals",
-                        "nodes_messages", "packaging", "recorder", "replay", "ros_faults",
+                        "nodes_messages", "packaging", "plotjuggler_arrays", "recorder", "replay",
+                        "ros_faults",
                         "ros_graph"),
 }
 KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in names}

@@ -64,6 +64,9 @@ def test_install_layout(workspace):
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "rotor_avc").is_file()
     assert (prefix / "share" / "rotor_avc" / "package.xml").is_file()
     assert (prefix / "share" / "rotor_avc" / "config" / "foot_mount_case3.yaml").is_file()
+    assert (prefix / "share" / "rotor_avc" / "launch" / "rotor_avc.launch.py").is_file()
+    assert (prefix / "share" / "rotor_avc" / "layouts" / "rotor_avc.foxglove.json").is_file()
+    assert (prefix / "share" / "rotor_avc" / "layouts" / "rotor_avc.plotjuggler.xml").is_file()
     env = ros2_run_env(workspace)
     r = subprocess.run([sys.executable, "-c", "import rotor_avc.config as c; print(c.__file__); "
                         "print(c.find_config('scenario_case3_steady'))"], cwd=workspace, env=env,

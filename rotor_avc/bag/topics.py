@@ -27,7 +27,10 @@ Namespace ``/<machine>``, default ``/avc``; all types are standard ROS 2 message
 A **labelled array** is a Float64MultiArray with one dimension whose ``label`` is the
 comma-separated list of element names (``bearing_D_vz,bearing_D_vy,...``), ``size = stride =``
 the number of elements, ``data_offset = 0``; ``data[i]`` is the value of name ``i``. Names are
-the plant's output names (``rotor_avc.models.plant.Output.name``) and units their units.
+the plant's output names (``rotor_avc.models.plant.Output.name``) and units their units. It
+carries at most :data:`MAX_ARRAY_ELEMENTS` elements, what PlotJuggler's ROS 2 parser reads; a
+longer one is refused (:func:`check_array_size`) where it is made: by a node at start-up, by the
+bag writer of an in-process run.
 
 Every message is stamped and logged at its sim time: log time = publish time = header stamp
 (the actuator force's stamp may name an earlier measurement). :class:`Stream` holds one topic's
@@ -60,6 +63,21 @@ TOPIC_TYPES = {
     "/clock": "rosgraph_msgs/msg/Clock",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }
+
+
+#: PlotJuggler's ROS 2 parser reads arrays of at most its "maximum array size" (default 100)
+#: and clamps or drops longer ones: no labelled array of the package is longer
+MAX_ARRAY_ELEMENTS = 100
+
+
+def check_array_size(name: str, labels: Sequence[str]) -> None:
+    """BagError when the labelled array ``name`` has more than MAX_ARRAY_ELEMENTS elements."""
+    if len(labels) > MAX_ARRAY_ELEMENTS:
+        raise BagError("(stream)", f"{name}: {len(labels)} elements ({labels[0]} ... "
+                       f"{labels[-1]}), more than the {MAX_ARRAY_ELEMENTS} that PlotJuggler's "
+                       "ROS 2 parser reads (it would clamp or drop the array)",
+                       fix="configure fewer of what the names count (the model's outputs, "
+                           "the harmonic controller's sensors, actuators or harmonics)")
 
 
 def topic(name: str, namespace: str = NAMESPACE) -> str:
@@ -185,6 +203,7 @@ def labelled_array(name: str, time_s, labels: Sequence[str], values,
     if bad or len(set(labels)) != len(labels):
         raise BagError("(stream)", f"{name}: labels must be unique, non-empty, without commas "
                        f"or surrounding spaces (got {labels})")
+    check_array_size(name, labels)
     t = to_ns(time_s)
     data = _check_len(name, values, len(t)).reshape(len(t), -1)
     if data.shape[1] != len(labels):

@@ -22,39 +22,31 @@ from rclpy.signals import SignalHandlerOptions
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
 from . import signals
+from .graph_nodes import RECORDER, graph_nodes
 from .runtime import close_node, make_executor
 
 def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events",
                 plant_params: dict | None = None) -> list:
-    """The scenario's nodes, recorder first and plant last, for one executor, appended to
-    ``nodes`` as they are built (so a failure half-way leaves the built ones to be closed)."""
+    """The scenario's nodes (rotor_avc.nodes.graph_nodes: recorder first, plant last) for one
+    executor, appended to ``nodes`` as they are built (so a failure half-way leaves the built
+    ones to be closed); the recorder takes the messages from the publishers (``source:
+    process``)."""
     from .balancer import Balancer
     from .foot_controller import FootController
     from .harmonic_controller import HarmonicControllerNode
     from .plant_simulator import PlantSimulator
     from .recorder import Recorder
     from .synchronous_controller import SynchronousController
-
-    def params(**values):
-        return [Parameter(k, value=v) for k, v in values.items()]
-    scenario = load_scenario(scenario_name)
-    nodes.append(Recorder("recorder", parameter_overrides=params(
-        scenario=scenario_name, path=bag_path, source="process", executor=executor)))
-    for foot in scenario.machine.controllers:
-        nodes.append(FootController(f"foot_controller_{foot}", parameter_overrides=params(
-            scenario=scenario_name, foot_id=foot, executor=executor)))
-    if scenario.feedforward_actuators():
-        nodes.append(SynchronousController("synchronous_controller", parameter_overrides=params(
-            scenario=scenario_name, executor=executor)))
-    if scenario.use_harmonic:
-        nodes.append(HarmonicControllerNode("harmonic_controller", parameter_overrides=params(
-            scenario=scenario_name, executor=executor)))
-    if scenario.use_balancer:
-        nodes.append(Balancer("balancer", parameter_overrides=params(
-            scenario=scenario_name, executor=executor)))
-    nodes.append(PlantSimulator("plant_simulator", parameter_overrides=params(
-        scenario=scenario_name, wait_for_recorder="recorder", balancer=scenario.use_balancer,
-        harmonic=scenario.use_harmonic, executor=executor, **(plant_params or {}))))
+    classes = {"recorder": Recorder, "foot_controller": FootController,
+               "synchronous_controller": SynchronousController,
+               "harmonic_controller": HarmonicControllerNode, "balancer": Balancer,
+               "plant_simulator": PlantSimulator}
+    for spec in graph_nodes(load_scenario(scenario_name), bag_path, plant_params):
+        values = {**spec.parameters, "executor": executor}
+        if spec.name == RECORDER:
+            values["source"] = "process"
+        nodes.append(classes[spec.executable](spec.name, parameter_overrides=[
+            Parameter(k, value=v) for k, v in values.items()]))
     return nodes
 
 

@@ -44,6 +44,7 @@ from ..bag.sequence import check_sequence
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
 from . import signals
+from .graph_nodes import graph_nodes
 from .runtime import make_executor
 
 LAYOUTS = ("processes", "composed")
@@ -74,10 +75,6 @@ def _start(command: list[str], log_dir: Path, name: str) -> tuple[subprocess.Pop
     return proc, log
 
 
-def _node(module: str, name: str, args: list[str]) -> list[str]:
-    return ["-m", f"rotor_avc.nodes.{module}", "--ros-args", "-r", f"__node:={name}", *args]
-
-
 def node_commands(scenario, bag: Path, layout: str = "processes",
                   plant_params: dict | None = None) -> dict[str, list[str]]:
     """The processes of a run: name -> interpreter arguments (the plant last);
@@ -85,28 +82,13 @@ def node_commands(scenario, bag: Path, layout: str = "processes",
     if layout not in LAYOUTS:
         raise RotorAvcError(f"unknown graph layout {layout!r} -- fix: use one of "
                             + ", ".join(LAYOUTS))
-    source = str(scenario.machine.config.source)
-    extra = [a for k, v in (plant_params or {}).items() for a in ("-p", f"{k}:={v}")]
     if layout == "composed":
+        source = str(scenario.machine.config.source)
+        extra = [a for k, v in (plant_params or {}).items() for a in ("-p", f"{k}:={v}")]
         return {"composed": ["-m", "rotor_avc.nodes.composed", "--ros-args",
                              "-p", f"scenario:={source}", "-p", f"path:={bag}", *extra]}
-    common = ["-p", f"scenario:={source}"]
-    cmds = {"recorder": _node("recorder", "recorder", common + ["-p", f"path:={bag}"])}
-    for foot in scenario.machine.controllers:
-        cmds[f"foot_controller_{foot}"] = _node("foot_controller", f"foot_controller_{foot}",
-                                                common + ["-p", f"foot_id:={foot}"])
-    if scenario.feedforward_actuators():
-        cmds["synchronous_controller"] = _node("synchronous_controller",
-                                               "synchronous_controller", common)
-    plant_args = common + ["-p", "wait_for_recorder:=recorder"]
-    if scenario.use_harmonic:
-        cmds["harmonic_controller"] = _node("harmonic_controller", "harmonic_controller", common)
-        plant_args += ["-p", "harmonic:=true"]
-    if scenario.use_balancer:
-        cmds["balancer"] = _node("balancer", "balancer", common)
-        plant_args += ["-p", "balancer:=true"]
-    cmds["plant_simulator"] = _node("plant_simulator", "plant_simulator", plant_args + extra)
-    return cmds
+    return {spec.name: ["-m", f"rotor_avc.nodes.{spec.executable}", *spec.ros_args()]
+            for spec in graph_nodes(scenario, bag, plant_params)}
 
 
 def run_graph(scenario_name: str, bag: Path, log_dir: Path,

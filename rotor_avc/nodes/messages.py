@@ -37,6 +37,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from ..bag.cdr import CdrCodec, Layout
 from ..bag.msgdefs import DEFINITIONS, known_specs
 from ..bag.topics import FOOT_SIGNALS, NAMESPACE, foot_topic, topic  # noqa: F401  (re-exported)
+from ..bag.topics import check_array_size
 
 #: history of the lockstep publishers: deeper than any recorder window (the plant's
 #: ``recorder_window`` is at most LOCKSTEP_DEPTH - RECORDER_MARGIN), so a writer never overwrites
@@ -305,10 +306,12 @@ class Labelled:
 class LabelledBytes:
     """A labelled array ``time_s, *names`` as serialised bytes (the graph's hot path, as
     :class:`StampedVector`): a template of :class:`Labelled` serialised once, ``fill`` writes
-    the values into it."""
+    the values into it. More names than PlotJuggler reads are refused (a node at start-up,
+    rotor_avc.bag.topics.check_array_size)."""
 
     def __init__(self, names):
         self.names = ("time_s",) + tuple(names)
+        check_array_size("labelled array", self.names)
         self.label = ",".join(self.names)
         data, layout = _template(Labelled(self.names).fill([0.0] * len(self.names)), _LABELLED)
         at, _, n, _ = layout.leaves["data"]
