@@ -122,9 +122,9 @@ def _messages(ts, imp: Imperfections, test_force: bool, rng):
 def _write_part(path: Path, messages) -> dict:
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         conns = {}
-        for log, topic, cls, data in messages:
+        for log, topic, msgtype, data in messages:
             if topic not in conns:
-                conns[topic] = w.add_connection(topic, cls.__msgtype__, typestore=TYPESTORE)
+                conns[topic] = w.add_connection(topic, msgtype, typestore=TYPESTORE)
             w.write(conns[topic], log, data)
     return yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
 
@@ -132,9 +132,16 @@ def _write_part(path: Path, messages) -> dict:
 def write_corpus_bag(directory, ts, imp: Imperfections = Imperfections(), *,
                      test_force: bool = False) -> Path:
     """The run ``ts`` (rotor_avc.sim.timeseries.TimeSeries) as a two-file rosbag2 directory."""
-    directory = Path(directory)
     rng = np.random.default_rng(imp.seed)
-    messages = sorted(_messages(ts, imp, test_force, rng), key=lambda m: m[0])
+    return write_split_bag(directory, [(log, topic, cls.__msgtype__, data) for log, topic, cls, data
+                                       in _messages(ts, imp, test_force, rng)])
+
+
+def write_split_bag(directory, messages) -> Path:
+    """``(log ns, topic, msg type, CDR bytes)`` as a rosbag2 directory of two files, split at
+    the middle message, with one metadata.yaml in rosbag2's format listing both."""
+    directory = Path(directory)
+    messages = sorted(messages, key=lambda m: m[0])
     half = len(messages) // 2
     scratch = directory.parent / f"{directory.name}_parts"
     parts = [_write_part(scratch / f"{directory.name}_{i}", chunk)
