@@ -11,9 +11,9 @@ instead of the simulator's exact angle. The method:
   gap of more than ``max_missing`` missing samples (or outside the channel's record) is
   excluded. Linear interpolation of a channel sampled every
   ``p`` s is the filter ``(1 - a) e^{-j w a p} + a e^{j w (1 - a) p}`` for a grid point a
-  fraction ``a`` past a sample; :func:`interpolation_loss_db` averages it over the grid (``|cos(pi f p)|`` for a
-  channel at another rate, 1 for one sampled on the grid), which the report states at the
-  highest frequency compared;
+  fraction ``a`` past a sample (``cos(pi f p)`` at mid-interval); :func:`interpolation_loss_db`
+  averages it over the grid (``sinc^2(f p)`` for a channel at another rate, 1 for one sampled on
+  the grid), which the report states at the highest frequency compared;
 * :func:`shaft_from_pulses` -- revolution ``k`` at pulse time ``t_k``: the angle is
   ``2 pi k + angle_at_pulse`` interpolated linearly between pulses (a missing pulse is an
   interval about twice its neighbours' median: it counts the revolutions it spans), the speed
@@ -106,7 +106,7 @@ def interpolation_loss_db(stamps_s, grid_s, freq_hz: float) -> float:
     ``grid_s``: ``-20 log10 |mean_i((1 - a_i) e^{-j w a_i d_i} + a_i e^{j w (1 - a_i) d_i})|``
     over the grid points (the interpolated ``e^{j w t}`` over the true one), with ``a_i`` the
     fraction of its interval ``d_i`` a point lies past the sample before it (no loss for a
-    channel sampled on the grid; ``-20 log10 |cos(pi f p)|`` for one at another rate)."""
+    channel sampled on the grid; ``-20 log10 sinc^2(f p)`` for one at another rate)."""
     t = np.asarray(stamps_s, dtype=float)
     grid = np.asarray(grid_s, dtype=float)
     right = np.clip(np.searchsorted(t, grid, side="right"), 1, t.size - 1)
