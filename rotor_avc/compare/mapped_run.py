@@ -37,6 +37,8 @@ from .recording_map import DEFAULT_ANGLE_FIELD, read_map
 #: whole revolutions the order tracking needs in the second half of a dwell
 #: (rotor_avc.compare.comparison: settle_fraction 0.5, min_revolutions 4)
 MIN_VERDICT_REVOLUTIONS = 8
+#: the test force's name among the resampled channels
+TEST_FORCE = "test force"
 
 
 def model_signals(plant) -> list[str]:
@@ -90,9 +92,9 @@ def _read_shaft(bag, shaft, source: str) -> tuple[np.ndarray, np.ndarray | None]
                           fix=exc.fix, source=source) from None
 
 
-def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
-    """The recording at ``bag_path`` (.mcap or rosbag2 directory) as a RecordedRun of the
-    machine ``config`` through the mapping ``map_path`` (see the module docstring)."""
+def load_machine_and_map(config, map_path):
+    """``(config data, scenario, map, channel name -> SignalMap)``: the scenario with the map's
+    unbalance reference when it gives one."""
     config_path = find_config(config)
     data = load_yaml(config_path)
     scenario = scenario_from_config(data, str(config_path))
@@ -105,11 +107,17 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
         raise ConfigError("test_force", "the configuration has no simulation.test_signal (its "
                           "actuator and band)", fix=f"add simulation.test_signal to "
                           f"{config_path} or drop test_force", source=str(map_path))
+    return data, scenario, rmap, signals
+
+
+def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
+    """The recording at ``bag_path`` (.mcap or rosbag2 directory) as a RecordedRun of the
+    machine ``config`` through the mapping ``map_path`` (see the module docstring)."""
+    data, scenario, rmap, signals = load_machine_and_map(config, map_path)
     source = str(map_path)
-    test_force_mapped = rmap.test_force is not None
     mapped = {name: (sig, f"channels.{name}") for name, sig in signals.items()}
     if rmap.test_force is not None:
-        mapped["test force"] = (rmap.test_force, "test_force")
+        mapped[TEST_FORCE] = (rmap.test_force, "test_force")
     with open_bag(bag_path, require_messages=True) as bag:
         raw = {name: _read_field(bag, sig, where, source) for name, (sig, where) in mapped.items()}
         shaft_ns, shaft_angle = _read_shaft(bag, rmap.shaft, source)
@@ -120,31 +128,31 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
         quality = R.stamp_quality(f"{name} ({mapped[name][0].topic})", t, fixed)
         clean[name] = (t, y, quality)
         notes.append(quality.describe())
-    grid, T = _grid(clean, scenario.sample_period_s)
+    grid = _grid(clean, scenario.sample_period_s)
     valid = np.ones(grid.size, bool)
     channels = {}
-    for name, (t, y, q) in clean.items():
+    for name, (t, y, _) in clean.items():
         channels[name], ok = R.resample(t, y, grid, rmap.resample.max_missing_samples)
         valid &= ok
     shaft, shaft_note = _shaft(rmap.shaft, (shaft_ns - origin_ns) * 1e-9, shaft_angle, grid)
     valid &= shaft.valid
-    notes.append(shaft_note)
     top_hz = float(shaft.speed_rad_s.max() / (2 * np.pi))
-    if scenario.test_force is not None and test_force_mapped:
+    if TEST_FORCE in clean:
         top_hz = max(top_hz, scenario.test_force.band_hz[1])
     losses = [f"{name} {R.interpolation_loss_db(t, grid, top_hz):.2g} dB"
               for name, (t, _, _) in clean.items()]
-    notes.append(f"resampling: linear interpolation onto the configuration's {1 / T:g} Hz grid "
-                 f"aligned to the fastest channel's stamps; {int((~valid).sum())} of {grid.size} "
-                 f"grid points excluded (in gaps of more than {rmap.resample.max_missing_samples} "
-                 f"missing samples, outside a channel's record); interpolation loss at "
-                 f"{top_hz:.4g} Hz: " + ", ".join(losses))
+    notes.append(shaft_note)
+    notes.append(f"resampling: linear interpolation onto the configuration's "
+                 f"{1 / scenario.sample_period_s:g} Hz grid aligned to the fastest channel's "
+                 f"stamps; {int((~valid).sum())} of {grid.size} grid points excluded (in gaps of "
+                 f"more than {rmap.resample.max_missing_samples} missing samples, outside a "
+                 f"channel's record); interpolation loss at {top_hz:.4g} Hz: " + ", ".join(losses))
     notes += _short_dwells(shaft.dwells)
     keep = np.flatnonzero(valid)
     if keep.size < 3:
         raise BagError(bag_path, "fewer than 3 grid points are covered by every mapped channel "
                        "and the shaft", fix="check the mapping's topics and stamps")
-    test = channels.pop("test force", None)
+    test = channels.pop(TEST_FORCE, None)
     return RecordedRun(Path(bag_path), scenario, data, "", grid[keep],
                        shaft.angle_rad[keep], shaft.speed_rad_s[keep],
                        {n: v[keep] for n, v in channels.items()},
@@ -152,16 +160,16 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
                        "" if test is None else f"recorded ({rmap.test_force.topic})", notes)
 
 
-def _grid(clean: dict, period_s: float) -> tuple[np.ndarray, float]:
+def _grid(clean: dict, period_s: float) -> np.ndarray:
     """The uniform grid every channel covers, aligned to the fastest channel's stamps."""
     start = max(t[0] for t, _, _ in clean.values())
     stop = min(t[-1] for t, _, _ in clean.values())
-    fastest = max(clean.values(), key=lambda c: c[2].rate_hz)[0]
-    anchor = fastest[np.searchsorted(fastest, start)]
-    if stop <= anchor:
+    if stop <= start:
         raise ConfigError("channels", "the mapped channels do not overlap in time",
                           fix="map topics recorded at the same time")
-    return anchor + period_s * np.arange(int(np.floor((stop - anchor) / period_s)) + 1), period_s
+    fastest = max(clean.values(), key=lambda c: c[2].rate_hz)[0]
+    anchor = fastest[np.searchsorted(fastest, start)]
+    return anchor + period_s * np.arange(int(np.floor((stop - anchor) / period_s)) + 1)
 
 
 def _shaft(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
