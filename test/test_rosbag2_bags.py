@@ -12,6 +12,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from rotor_avc.analysis import resampling as R
 from rotor_avc.analysis.frf_estimate import estimate_frf, h1_random_error
+from rotor_avc.analysis.one_x_noise import decidable, one_x_random_error
 from rotor_avc.bag import BagError, BagReader
 from rotor_avc.bag.rosbag2 import DirectoryBag, open_bag
 from rotor_avc.cli import main
@@ -239,3 +240,17 @@ def test_a_bag_of_this_package_compares_the_same_through_a_mapping(tmp_path):
     np.testing.assert_allclose(mapped.speed_rad_s, native.speed_rad_s, rtol=1e-6)
     for name in mapping["channels"]:
         np.testing.assert_allclose(mapped.measured[name], native.measured[name], rtol=2e-3)
+
+
+def test_one_x_random_error_matches_a_monte_carlo():
+    rng = np.random.default_rng(11)
+    theta = 2 * np.pi * 25.0 * np.arange(2000) / 5000.0            # 10 revolutions
+    Y = 0.3 - 0.4j
+    fits = [one_x_random_error(theta, np.real(Y * np.exp(1j * theta)) + 0.7
+                               + 0.5 * rng.standard_normal(theta.size)) for _ in range(400)]
+    phasors = np.array([p for p, _ in fits])
+    assert np.mean(phasors) == pytest.approx(Y, abs=0.01)
+    spread = np.std(np.abs(phasors)) / abs(Y)
+    assert np.median([e for _, e in fits]) == pytest.approx(spread, rel=0.15)
+    assert decidable(0.01, 0.5) == (True, pytest.approx(20 * np.log10(1.02)))
+    assert not decidable(0.05, 0.5)[0]

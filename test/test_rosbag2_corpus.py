@@ -111,6 +111,7 @@ def test_stepped_recording_recovers_the_1x_response_and_lists_its_imperfections(
         kept, dropped = int(m.group(1)), int(m.group(2))
         assert dropped / (kept + dropped) == pytest.approx(STEPPED_IMP.drop_fraction, rel=0.4)
     assert "shaft (pulse, /tacho/pulse)" in out and "resampling: linear interpolation" in out
+    assert "1x random error from the noise (2 sigma" in out
 
 
 def test_broadband_h1_lies_within_its_two_sigma_band_and_exports_to_uff(broadband, tmp_path,

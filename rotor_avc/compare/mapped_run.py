@@ -12,8 +12,9 @@ scenario from a machine configuration, the signals from a bag through a mapping 
 * the shaft: a pulse topic (``shaft_from_pulses``), an encoder angle or a JointState position
   (the angle interpolated, the speed and its dwells from the angle's whole-revolution crossings);
 * ``notes``: what was found per channel (rate, jitter, dropped samples, longest gap), the shaft
-  (pulses, missing pulses, dwells), the resampling method and its loss, and dwells too short for
-  a 1x verdict. :func:`compare_mapped` adds per output the coherence of the broadband estimate
+  (pulses, missing pulses, dwells), the resampling method and its loss, dwells too short for
+  a 1x verdict and 1x points whose noise (:mod:`rotor_avc.analysis.one_x_noise`) is too large
+  for one. :func:`compare_mapped` adds per output the coherence of the broadband estimate
   and the fraction of H1 inside its +-2 sigma band around the sampled-loop model.
 """
 from __future__ import annotations
@@ -25,12 +26,13 @@ import numpy as np
 
 from ..analysis import resampling as R
 from ..analysis.frf_estimate import h1_random_error
+from ..analysis.one_x_noise import decidable, one_x_random_error
 from ..bag import BagError
 from ..bag.rosbag2 import open_bag
 from ..config import find_config, load_yaml
 from ..errors import ConfigError
 from ..scenario import scenario_from_config
-from .comparison import MIN_COHERENCE, Comparison, compare_run
+from .comparison import MIN_COHERENCE, TOL_OFF_RESONANCE_DB, Comparison, compare_run
 from .recorded_run import RecordedRun
 from .recording_map import DEFAULT_ANGLE_FIELD, read_map
 
@@ -153,9 +155,11 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
         raise BagError(bag_path, "fewer than 3 grid points are covered by every mapped channel "
                        "and the shaft", fix="check the mapping's topics and stamps")
     test = channels.pop(TEST_FORCE, None)
+    channels = {n: v[keep] for n, v in channels.items()}
+    if test is None:
+        notes += _noisy_points(grid[keep], shaft.angle_rad[keep], channels, shaft.dwells)
     return RecordedRun(Path(bag_path), scenario, data, "", grid[keep],
-                       shaft.angle_rad[keep], shaft.speed_rad_s[keep],
-                       {n: v[keep] for n, v in channels.items()},
+                       shaft.angle_rad[keep], shaft.speed_rad_s[keep], channels,
                        None if test is None else test[keep],
                        "" if test is None else f"recorded ({rmap.test_force.topic})", notes)
 
@@ -200,6 +204,28 @@ def _short_dwells(dwells) -> list[str]:
             out.append(f"dwell at {hz:.4g} Hz: {revs:.1f} revolutions, too short for a 1x "
                        f"verdict (needs {MIN_VERDICT_REVOLUTIONS}: half to settle, 4 whole "
                        "revolutions to track)")
+    return out
+
+
+def _noisy_points(time_s, angle_rad, channels, dwells) -> list[str]:
+    """Per dwell and channel, the 2-sigma random error of the 1x magnitude over the dwell's
+    second half (where the order tracking takes it); points it makes undecidable at
+    TOL_OFF_RESONANCE_DB are named, the worst one is stated."""
+    out, worst = [], (0.0, "")
+    for a, b, hz in dwells:
+        sel = (time_s >= 0.5 * (a + b)) & (time_s <= b)
+        if sel.sum() < 8:
+            continue
+        for name, y in channels.items():
+            _, eps = one_x_random_error(angle_rad[sel], y[sel])
+            ok, width = decidable(eps, TOL_OFF_RESONANCE_DB)
+            worst = max(worst, (width, f"{name} at {hz:.4g} Hz"))
+            if not ok:
+                out.append(f"1x of {name} at {hz:.4g} Hz: noise allows +-{width:.2g} dB "
+                           f"(2 sigma), too poor for a {TOL_OFF_RESONANCE_DB:g} dB verdict")
+    if worst[1]:
+        out.append(f"1x random error from the noise (2 sigma, dwells' second halves): largest "
+                   f"+-{worst[0]:.2g} dB ({worst[1]})")
     return out
 
 
