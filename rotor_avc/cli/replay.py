@@ -27,8 +27,8 @@ HELP = ("Publish a bag's recorded messages into the ROS graph, raw, with their r
         "answers with the recorded ones (--check).")
 EXAMPLE = ("rotor-avc replay bags/case3.mcap --fast --topics /avc/foot/DL/acceleration "
            "--check 1e-12   # with foot_controller DL running\n"
-           "  rotor-avc replay recording/ --topics /imu_foot_dl/data "
-           "--remap /imu_foot_dl/data:=/avc/foot/DL/imu   # a ros2 bag record directory")
+           "  rotor-avc replay recording/ --fast --topics /accel_dl/data "
+           "--remap /accel_dl/data:=/avc/foot/DL/acceleration   # a ros2 bag record directory")
 
 
 def pair(text: str) -> tuple[str, str]:
