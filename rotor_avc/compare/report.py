@@ -12,7 +12,7 @@
   the measurement against the sampled-loop model; broadband rows add ``h1_sigma_rel``, H1's
   normalised random error from coherence and averages
   (:func:`rotor_avc.analysis.frf_estimate.h1_random_error`: the +-1 sigma band is
-  ``measured_mag (1 +- h1_sigma_rel)``, drawn grey in the broadband plots);
+  ``measured_mag (1 +- h1_sigma_rel)``, drawn grey in the broadband plots where it is below 0.5);
 * ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
   sampled-loop model solid, continuous dashed), ``broadband_<speed>.png`` (H1, H2, both models,
   coherence) and ``poles.png`` (continuous and sampled-loop poles at the run's speeds);
@@ -41,6 +41,8 @@ ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sam
               f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
               f"{TOL_RESONANCE_PCT:g} %.")
 STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
+#: the broadband plots draw H1's random-error band where it is narrower than this (relative)
+BAND_MAX_SIGMA = 0.5
 
 
 def _summary(c: dict) -> dict:
@@ -193,10 +195,12 @@ def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
             ax = axes[:, i]
             ax[0].plot(f, _db(est.h1[sel, i]), "k", lw=0.8, label="H1")
             sigma = h1_random_error(est.coherence[sel, i], est.averages)
+            shown = sigma < BAND_MAX_SIGMA
             with np.errstate(divide="ignore", invalid="ignore"):
-                ax[0].fill_between(f, _db(np.abs(est.h1[sel, i]) * np.clip(1 - sigma, 1e-6, None)),
-                                   _db(np.abs(est.h1[sel, i]) * (1 + sigma)), color="0.8",
-                                   lw=0, label="H1 +-1 sigma")
+                ax[0].fill_between(f, _db(np.abs(est.h1[sel, i]) * (1 - sigma * shown)),
+                                   _db(np.abs(est.h1[sel, i]) * (1 + sigma * shown)),
+                                   where=shown, color="0.8", lw=0,
+                                   label=f"H1 +-1 sigma (< {BAND_MAX_SIGMA:g})")
             ax[0].plot(f, _db(est.h2[sel, i]), "0.6", lw=0.6, label="H2")
             for m, style in STYLE.items():
                 r = bb.models[m].responses[name]
