@@ -240,6 +240,15 @@ def test_a_bag_of_this_package_compares_the_same_through_a_mapping(tmp_path):
     np.testing.assert_allclose(mapped.speed_rad_s, native.speed_rad_s, rtol=1e-6)
     for name in mapping["channels"]:
         np.testing.assert_allclose(mapped.measured[name], native.measured[name], rtol=2e-3)
+    # the mapping's unbalance reference replaces the configuration's: per unit of twice the
+    # unbalance the measured 1x is half, the model's is the same
+    mapping["unbalance"] = {"static": {"magnitude": 2e-2, "phase_deg": 0.0}}
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(mapping))
+    doubled = compare_mapped(bag, config, tmp_path / "map.yaml").one_x
+    for name in mapping["channels"]:
+        np.testing.assert_allclose(doubled.measured[name], mapped.measured[name] / 2, rtol=1e-12)
+        np.testing.assert_allclose(doubled.model["sampled"][name],
+                                   mapped.model["sampled"][name], rtol=1e-12)
 
 
 def test_one_x_random_error_matches_a_monte_carlo():
