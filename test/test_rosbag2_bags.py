@@ -135,6 +135,8 @@ def test_config_and_map_go_together(corpus, capsys):
     root, bag = corpus
     assert main(["compare", str(bag), "--map", str(root / "map.yaml")]) == 2
     assert "--config/--map: a mapped comparison needs both" in capsys.readouterr().err
+    assert main(["compare", str(bag)]) == 2          # a directory without rotor_avc metadata
+    assert "carries no run configuration" in capsys.readouterr().err
 
 
 def test_pulses_give_the_analytic_angle_and_speed_despite_a_missing_pulse():
