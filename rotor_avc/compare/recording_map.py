@@ -28,8 +28,6 @@ STAMPS = ("header", "log")
 SHAFT_SOURCES = ("pulse", "angle", "joint_state")
 #: the angle field of a shaft source when the mapping does not name one
 DEFAULT_ANGLE_FIELD = {"angle": "data", "joint_state": "position[0]"}
-#: 1 g in m/s^2 (ISO 80000-3), for accelerometers that publish in g
-STANDARD_GRAVITY = 9.80665
 
 
 @dataclass(frozen=True)
