@@ -7,14 +7,14 @@ scenario from a machine configuration, the signals from a bag through a mapping 
   the mapping's ``unbalance`` when given;
 * the grid: the configuration's sample period (the controllers' rate, which the sampled-loop
   model and the FRF estimate use), over the time every channel covers, aligned to the stamps of
-  the fastest channel; every channel linearly interpolated onto it, grid points in a gap longer
+  the fastest channel; every channel linearly interpolated onto it, grid points in a gap of more
   than ``resample.max_missing_samples`` missing samples of any channel excluded;
 * the shaft: a pulse topic (``shaft_from_pulses``), an encoder angle or a JointState position
   (the angle interpolated, the speed and its dwells from the angle's whole-revolution crossings);
 * ``notes``: what was found per channel (rate, jitter, dropped samples, longest gap), the shaft
-  (pulses, missing pulses, dwells), the resampling method and its loss, dwells too short for
-  a 1x verdict and 1x points whose noise (:mod:`rotor_avc.analysis.one_x_noise`) is too large
-  for one. :func:`compare_mapped` adds per output the coherence of the broadband estimate
+  (pulses, missing pulses, dwells), the resampling method and its loss, and the 1x points whose
+  noise (:mod:`rotor_avc.analysis.one_x_noise`, over the dwell's second half: a short dwell has
+  few samples) is too large for a verdict. :func:`compare_mapped` adds per output the coherence of the broadband estimate
   and the fraction of H1 inside its +-2 sigma band around the sampled-loop model.
 """
 from __future__ import annotations
@@ -36,9 +36,6 @@ from .comparison import MIN_COHERENCE, TOL_OFF_RESONANCE_DB, Comparison, compare
 from .recorded_run import RecordedRun
 from .recording_map import DEFAULT_ANGLE_FIELD, read_map
 
-#: whole revolutions the order tracking needs in the second half of a dwell
-#: (rotor_avc.compare.comparison: settle_fraction 0.5, min_revolutions 4)
-MIN_VERDICT_REVOLUTIONS = 8
 #: the test force's name among the resampled channels
 TEST_FORCE = "test force"
 
@@ -149,7 +146,6 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
                  f"stamps; {int((~valid).sum())} of {grid.size} grid points excluded (in gaps of "
                  f"more than {rmap.resample.max_missing_samples} missing samples, outside a "
                  f"channel's record); interpolation loss at {top_hz:.4g} Hz: " + ", ".join(losses))
-    notes += _short_dwells(shaft.dwells)
     keep = np.flatnonzero(valid)
     if keep.size < 3:
         raise BagError(bag_path, "fewer than 3 grid points are covered by every mapped channel "
@@ -194,17 +190,6 @@ def _shaft(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
     dwells = ", ".join(f"{hz:.4g} Hz ({a:.3g}-{b:.3g} s)" for a, b, hz in shaft.dwells)
     return shaft, (f"shaft ({shaft_map.source}, {shaft_map.topic}): {what}; constant-speed "
                    f"dwells (speed spread <= {shaft_map.dwell_tol:g}): {dwells or 'none'}")
-
-
-def _short_dwells(dwells) -> list[str]:
-    out = []
-    for a, b, hz in dwells:
-        revs = (b - a) * hz
-        if revs < MIN_VERDICT_REVOLUTIONS:
-            out.append(f"dwell at {hz:.4g} Hz: {revs:.1f} revolutions, too short for a 1x "
-                       f"verdict (needs {MIN_VERDICT_REVOLUTIONS}: half to settle, 4 whole "
-                       "revolutions to track)")
-    return out
 
 
 def _noisy_points(time_s, angle_rad, channels, dwells) -> list[str]:
