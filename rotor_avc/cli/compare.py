@@ -8,7 +8,6 @@ from ..compare.comparison import compare_bag
 from ..compare.mapped_run import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
-from ..reports.uff_files import write_uff
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
@@ -53,6 +52,7 @@ def run(args) -> int:
 
 def report(comp, bag, out: Path) -> dict:
     """Write the report folder and print the summary; returns the report's files."""
+    from ..reports.uff_files import write_uff      # pyuff: imported only to write the file
     files = write_report(comp, out)
     uff = write_uff(comp, out / "frf.uff")
     if uff is not None:
