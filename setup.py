@@ -31,6 +31,7 @@ setup(
         "zstandard",           # imported by rotor_avc.bag (also a dependency of mcap)
         "lz4",                 # imported by rotor_avc.bag.mcap_writer (also one of mcap)
         "plotly>=5",             # its bundled plotly.js, embedded in the interactive reports
+        "pyuff>=2.4",            # UFF type 58 export of the comparison's FRFs (rotor_avc.reports)
     ],
     extras_require={
         # ROS 2 Jazzy from PyPI (not needed inside a colcon workspace, where the distro provides it)

@@ -92,3 +92,15 @@ def estimate_frf(x, y, fs_hz: float, *, nperseg: int | None = None,
     averages = (n - noverlap) // (nperseg - noverlap)
     return FrfEstimate(f, h1, h2, np.nan_to_num(coherence), float(fs_hz), str(window),
                        int(nperseg), int(noverlap), int(averages), str(detrend))
+
+
+def h1_random_error(coherence, averages: int) -> np.ndarray:
+    """Normalised random error of the H1 magnitude (Bendat & Piersol, Random Data, eq. 9.73):
+    ``eps = sqrt(1 - g^2) / (|g| sqrt(2 n_d))`` with ``g^2`` the coherence and ``n_d`` the
+    number of averages; the +-1 sigma band is ``|H1| (1 +- eps)``. Infinite where the coherence
+    is 0."""
+    g2 = np.clip(np.asarray(coherence, dtype=float), 0.0, 1.0)
+    if averages < 1:
+        raise ModelError(f"FRF random error: averages must be >= 1 (got {averages})")
+    with np.errstate(divide="ignore"):
+        return np.sqrt(1.0 - g2) / (np.sqrt(g2) * np.sqrt(2.0 * averages))

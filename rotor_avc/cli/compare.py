@@ -5,27 +5,46 @@ import math
 from pathlib import Path
 
 from ..compare.comparison import compare_bag
+from ..compare.mapped_run import compare_mapped
+from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
         "from the bag's own configuration: 1x response per speed (order tracking), broadband "
-        "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv "
-        "and metrics.json. Exit status 1 when a check fails, 2 for an unreadable bag, 3 for a "
+        "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv, "
+        "frf.uff (UFF type 58: measured and model FRFs, coherence, SI units) and metrics.json. Exit status 1 when a check fails, 2 for an unreadable bag, 3 for a "
         "recording with missing samples (checked first: stamps contiguous at the run's period, "
-        "counts equal across the plant's topics, published = recorded).")
-EXAMPLE = "rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3"
+        "counts equal across the plant's topics, published = recorded). A recording of any machine "
+        "(a .mcap file or a rosbag2 directory, e.g. from `ros2 bag record`) compares with "
+        "--config MACHINE.yaml --map MAP.yaml: the mapping says which topic and field is which "
+        "model signal; the channels are resampled onto the configuration's sample grid and the "
+        "report lists rate, jitter and dropouts per channel, the shaft's pulses and dwells and "
+        "the coherence per output.")
+EXAMPLE = ("rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3\n"
+           "  rotor-avc compare recording/ --config machine.yaml --map sensors.yaml --out out/real")
 
 
 def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="the recorded run: a .mcap bag with the run's "
-                                          "configuration (rotor-avc simulate --out, recorder)")
+                                          "configuration (rotor-avc simulate --out, recorder), "
+                                          "or any .mcap file or rosbag2 directory with --map")
+    p.add_argument("--config", help="machine/scenario config of the recorded machine (with "
+                                    "--map): model, controllers, simulation.sample_rate_hz, "
+                                    "unbalance, test_signal")
+    p.add_argument("--map", type=Path, help="mapping file: topics and fields -> model signals, "
+                                            "shaft source, unbalance reference (README)")
     p.add_argument("--out", type=Path, default=None,
                    help="report folder (created; default: out/compare_<bag name>)")
 
 
 def run(args) -> int:
-    comp = compare_bag(args.bag)
+    if (args.config is None) != (args.map is None):
+        raise ConfigError("--config/--map", "a mapped comparison needs both",
+                          fix="give --config MACHINE.yaml and --map MAP.yaml, or neither for a "
+                              "bag this package wrote")
+    comp = (compare_bag(args.bag) if args.map is None
+            else compare_mapped(args.bag, args.config, args.map))
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
     return 0 if comp.passed else 1
@@ -33,7 +52,11 @@ def run(args) -> int:
 
 def report(comp, bag, out: Path) -> dict:
     """Write the report folder and print the summary; returns the report's files."""
+    from ..reports.uff_files import write_uff      # pyuff: imported only to write the file
     files = write_report(comp, out)
+    uff = write_uff(comp, out / "frf.uff")
+    if uff is not None:
+        files["uff"] = uff
     run_ = comp.run
     sc = run_.scenario
     print(f"{bag}: {sc.machine.plant.name}, {1 / run_.sample_period_s:g} Hz, "

@@ -1,8 +1,11 @@
 """``rotor-avc replay``: publish a bag's messages into the ROS graph (rotor_avc.nodes.replay).
 
-The bag is checked first, without ROS (a truncated file, an unknown schema, no configuration
-metadata, an empty bag: one-line error, exit status 2; samples missing on a sampled topic or
-published but not recorded: one verdict, exit status 3, rotor_avc.bag.sequence); rclpy is imported only then, so the rest
+The bag is a ``.mcap`` file or a rosbag2 directory (``ros2 bag record``: metadata.yaml and split
+files, rotor_avc.bag.rosbag2), e.g. a recording of a real machine whose driver topics
+``--remap`` renames to the controllers' inputs. It is checked first, without ROS (a truncated
+file, an unknown schema, an empty bag: one-line error, exit status 2; for a bag with this
+package's run configuration, samples missing on a sampled topic or published but not recorded:
+one verdict, exit status 3, rotor_avc.bag.sequence); rclpy is imported only then, so the rest
 of the command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
 foot controller re-driven with the recorded foot accelerations) are compared with the recorded
 answers of the same stamps, and the exit status is 1 when any differs by more than TOL.
@@ -12,7 +15,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..bag.reader import BagReader
+from ..bag.metadata import CONFIG_RECORD
+from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
 from ..errors import RotorAvcError
 from .common import nonnegative_float
@@ -22,7 +26,9 @@ HELP = ("Publish a bag's recorded messages into the ROS graph, raw, with their r
         "(scaled by --rate) or lockstep as fast as the graph answers (--fast); compare the "
         "answers with the recorded ones (--check).")
 EXAMPLE = ("rotor-avc replay bags/case3.mcap --fast --topics /avc/foot/DL/acceleration "
-           "--check 1e-12   # with foot_controller DL running")
+           "--check 1e-12   # with foot_controller DL running\n"
+           "  rotor-avc replay recording/ --fast --topics /accel_dl/data "
+           "--remap /accel_dl/data:=/avc/foot/DL/acceleration   # a ros2 bag record directory")
 
 
 def pair(text: str) -> tuple[str, str]:
@@ -41,7 +47,8 @@ def positive_float(text: str) -> float:
 
 
 def add_arguments(p) -> None:
-    p.add_argument("bag", type=Path, help="the .mcap bag (rosbag2 MCAP profile)")
+    p.add_argument("bag", type=Path, help="the bag: a .mcap file (rosbag2 MCAP profile) or a "
+                                          "rosbag2 directory (metadata.yaml + .mcap files)")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--rate", type=positive_float, default=1.0,
                       help="timed replay at RATE x the recorded speed (default 1)")
@@ -70,9 +77,13 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    with BagReader(args.bag, require_config=True, require_messages=True) as reader:
-        for note in require_complete(reader).notes:
-            print(f"note: {note}")
+    with open_bag(args.bag, require_messages=True) as reader:
+        if CONFIG_RECORD in reader.metadata:
+            for note in require_complete(reader).notes:
+                print(f"note: {note}")
+        else:
+            print("note: the bag carries no rotor_avc run configuration (a recording of another "
+                  "source): its sample sequence is not checked")
         try:
             from ..nodes import replay as R          # rclpy: imported only here
         except ImportError as exc:

@@ -27,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bag import BagError, BagReader
+from ..bag import BagError
+from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
 from ..scenario import Scenario, scenario_from_config
 
@@ -63,9 +64,9 @@ def _unique(series):
 
 
 def read_run(path) -> RecordedRun:
-    """Read ``path`` (see the module docstring)."""
+    """Read ``path``, a .mcap file or a rosbag2 directory (see the module docstring)."""
     path = Path(path)
-    with BagReader(path, require_config=True, require_messages=True) as bag:
+    with open_bag(path, require_config=True, require_messages=True) as bag:
         config = bag.config
         scenario = scenario_from_config(config["machine"], f"{path} (recorded configuration)")
         recorded = config.get("damping")

@@ -9,7 +9,10 @@
 * ``frf.csv``: one row per channel and speed (``kind = 1x``) or frequency (``kind = broadband``):
   measured (H1 for broadband, with H2 and coherence), sampled-loop and continuous model, each as
   magnitude (SI unit per unit unbalance or per N) and phase in degrees, and the error in dB of
-  the measurement against the sampled-loop model;
+  the measurement against the sampled-loop model; broadband rows add ``h1_sigma_rel``, H1's
+  normalised random error from coherence and averages
+  (:func:`rotor_avc.analysis.frf_estimate.h1_random_error`: the +-1 sigma band is
+  ``measured_mag (1 +- h1_sigma_rel)``, drawn grey in the broadband plots where it is below 0.5);
 * ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
   sampled-loop model solid, continuous dashed), ``broadband_<speed>.png`` (H1, H2, both models,
   coherence) and ``poles.png`` (continuous and sampled-loop poles at the run's speeds);
@@ -28,6 +31,7 @@ import numpy as np
 
 from .comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
                                    TOL_RESONANCE_PCT, Comparison)
+from ..analysis.frf_estimate import h1_random_error
 from .figures import broadband_figures, one_x_figures, poles_figure
 from ..interactive.page import page as interactive_page
 from ..interactive.jsonable import jsonable as _clean
@@ -37,6 +41,8 @@ ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sam
               f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
               f"{TOL_RESONANCE_PCT:g} %.")
 STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
+#: the broadband plots draw H1's random-error band where it is narrower than this (relative)
+BAND_MAX_SIGMA = 0.5
 
 
 def _summary(c: dict) -> dict:
@@ -91,7 +97,8 @@ def _mag_phase(v):
 def write_csv(comp: Comparison, path: Path) -> Path:
     cols = ["kind", "speed_hz", "freq_hz", "channel", "unit", "measured_mag",
             "measured_phase_deg", "h2_mag", "h2_phase_deg", "coherence", "sampled_mag",
-            "sampled_phase_deg", "continuous_mag", "continuous_phase_deg", "error_db"]
+            "sampled_phase_deg", "continuous_mag", "continuous_phase_deg", "error_db",
+            "h1_sigma_rel"]
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(cols)
@@ -105,11 +112,12 @@ def write_csv(comp: Comparison, path: Path) -> Path:
                 for k in range(f.size):
                     w.writerow(["1x", f"{f[k]:.9g}", f"{f[k]:.9g}", ch, one.units[ch],
                                 rows[0][0][k], rows[0][1][k], "", "", "", rows[1][0][k],
-                                rows[1][1][k], rows[2][0][k], rows[2][1][k], f"{err[k]:.6g}"])
+                                rows[1][1][k], rows[2][0][k], rows[2][1][k], f"{err[k]:.6g}", ""])
         for bb in comp.broadband:
             est, sel = bb.estimate, np.isin(bb.estimate.freq_hz, bb.models["sampled"].freq_hz)
             for i, name in enumerate(bb.outputs):
                 h1, h2, coh = est.h1[sel, i], est.h2[sel, i], est.coherence[sel, i]
+                sigma = h1_random_error(coh, est.averages)
                 s, c = bb.models["sampled"].responses[name], bb.models["continuous"].responses[name]
                 with np.errstate(divide="ignore", invalid="ignore"):
                     err = 20 * np.log10(np.abs(h1) / np.abs(s))
@@ -119,7 +127,7 @@ def write_csv(comp: Comparison, path: Path) -> Path:
                                 name, bb.models["sampled"].units[name],
                                 cols_[0][0][k], cols_[0][1][k], cols_[1][0][k], cols_[1][1][k],
                                 f"{coh[k]:.6g}", cols_[2][0][k], cols_[2][1][k], cols_[3][0][k],
-                                cols_[3][1][k], f"{err[k]:.6g}"])
+                                cols_[3][1][k], f"{err[k]:.6g}", f"{sigma[k]:.6g}"])
     return path
 
 
@@ -186,6 +194,13 @@ def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
         for i, name in enumerate(bb.outputs):
             ax = axes[:, i]
             ax[0].plot(f, _db(est.h1[sel, i]), "k", lw=0.8, label="H1")
+            sigma = h1_random_error(est.coherence[sel, i], est.averages)
+            shown = sigma < BAND_MAX_SIGMA
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ax[0].fill_between(f, _db(np.abs(est.h1[sel, i]) * (1 - sigma * shown)),
+                                   _db(np.abs(est.h1[sel, i]) * (1 + sigma * shown)),
+                                   where=shown, color="0.8", lw=0,
+                                   label=f"H1 +-1 sigma (< {BAND_MAX_SIGMA:g})")
             ax[0].plot(f, _db(est.h2[sel, i]), "0.6", lw=0.6, label="H2")
             for m, style in STYLE.items():
                 r = bb.models[m].responses[name]
