@@ -22,7 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 KINDS = {
     "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "balancing_cli",
              "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
-             "config_errors", "config_keys", "control_block", "control_cli", "import_layers",
+             "config_errors", "config_keys", "control_block", "control_cli", "controller_faults", "import_layers",
              "bag_sequence", "nodes_lockstep", "nodes_timing", "sim_profile", "sim_scenario",
              "sleeve_bearing_cli", "suite_kinds"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
@@ -31,7 +31,7 @@ KINDS = {
               "stability_model", "stability_study", "stability_threshold"),
     "cross_method": ("active_bearing_synchronous", "api684", "bag_cdr", "bag_msgdefs",
                      "bag_roundtrip", "balancing_foot_mount", "balancing_rls", "campbell",
-                     "closed_loop_formulations", "compare_lockstep", "compare_resonances",
+                     "closed_loop_formulations", "compare_lockstep", "compare_resonances", "design_check",
                      "compare_synthetic", "compare_transfer", "control_discretize",
                      "control_filter", "control_limits", "control_sampled_loop", "frf_estimate",
                      "harmonic_laws", "harmonic_machine", "modal_frf", "order_tracking", "runup",
@@ -40,7 +40,7 @@ KINDS = {
                      "studies_dask"),
     "ros_integration": ("colcon", "compare_ros", "graph_recording", "node_signals",
                         "nodes_messages", "packaging", "recorder", "replay", "ros_faults",
-                        "ros_graph"),
+                        "ros_graph", "foot_controller_input"),
 }
 KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in names}
 

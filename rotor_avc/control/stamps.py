@@ -15,7 +15,8 @@ old stream). Nothing latches: the worst a bad stamp does is cost ``resync_sample
 
 Samples that never arrived (dropped by the transport, or overwritten in a full queue while
 the controller was busy) show as a gap in the accepted stamps: a gap of ``n`` periods counts
-``n - 1`` ``dropped`` samples (a gap below 1.5 periods counts none: jitter).
+``n - 1`` ``dropped`` samples, ``n`` rounded (stamps that jitter by less than a quarter period
+count right; a gap below 1.5 periods counts none).
 """
 from __future__ import annotations
 

@@ -51,8 +51,8 @@ from ..errors import RotorAvcError
 from ..sim.steady_state import start_in_steady_state
 from . import messages as m
 from . import taps
-from .runtime import (COMMON_PARAMS, Param, ParameterError, declare_parameters, node_scenario,
-                      run_node)
+from .runtime import (COMMON_PARAMS, Param, ParameterError, check_node_design,
+                      declare_parameters, node_scenario, run_node)
 from .timing import LoopTiming
 
 PARAMS = COMMON_PARAMS + (
@@ -93,6 +93,7 @@ class FootController(Node):
             raise ParameterError(f"{self.get_name()}: parameter 'foot_id' is empty -- fix: "
                                  "-p foot_id:=DL (a foot with a controller in the scenario)")
         sc = node_scenario(self, self.p["scenario"], "the scenario holding this foot's controller")
+        check_node_design(self, sc)
         controllers = build_digital_controllers(sc.machine, sc.sample_period_s)
         if foot not in controllers:
             raise RotorAvcError(f"{self.get_name()}: foot_id {foot!r} has no controller in "
