@@ -14,9 +14,10 @@ newest as its reference (``resync``; the caller resets its filter: the state bel
 old stream). Nothing latches: the worst a bad stamp does is cost ``resync_samples`` samples.
 
 Samples that never arrived (dropped by the transport, or overwritten in a full queue while
-the controller was busy) show as a gap in the accepted stamps: a gap of ``n`` periods counts
+the controller was busy) or were rejected by the caller show as a gap in the accepted stamps: a gap of ``n`` periods counts
 ``n - 1`` ``dropped`` samples, ``n`` rounded (stamps that jitter by less than a quarter period
-count right; a gap below 1.5 periods counts none).
+count right; a gap below 1.5 periods counts none; a gap beyond ``max_stamp_jump_s`` is a jump,
+answered by a resync, not counted).
 """
 from __future__ import annotations
 
