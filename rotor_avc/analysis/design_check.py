@@ -141,8 +141,8 @@ def check_design(machine, sample_period_s: float, speeds_rad_s, w_F_of: Callable
         if near.any():
             unresolved.append(float(speed))
             continue
-        s = poles.s
-        for zi, si in zip(poles.z[mag >= 1.0], s[mag >= 1.0]):
+        grow = poles.z[mag >= 1.0]
+        for zi, si in zip(grow, np.log(grow.astype(complex)) / sample_period_s):
             if zi.imag < 0:
                 continue                                  # one of each conjugate pair
             out.unstable_poles.append({
