@@ -21,7 +21,6 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, Si
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from ..analysis.design_check import enforce_scenario
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
 from . import signals
@@ -113,6 +112,7 @@ def node_scenario(node: Node, name: str, needs: str):
 def check_node_design(node: Node, scenario) -> None:
     """Refuse an unstable or improper design before the node runs it (DesignError, exit status
     2), unless ``control.allow_unstable``; log the warnings (rotor_avc.analysis.design_check)."""
+    from ..analysis.design_check import enforce_scenario      # not needed by every node
     for text in enforce_scenario(scenario, f"{node.get_name()}: {scenario.machine.config.source}"):
         node.get_logger().warning(text)
 
