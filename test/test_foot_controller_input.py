@@ -178,3 +178,36 @@ def test_unstable_design_is_refused_at_start_up(tmp_path):
         f"  {f}: {{ki: -1.4e+5}}\n" for f in ("DL", "DR", "NL")))
     with pytest.raises(DesignError, match="fc_unstable.*UNSTABLE.*damping ratio -"):
         FootController("fc_unstable", parameter_overrides=params(scenario=str(path), foot_id="DL"))
+
+
+def test_fuzzed_measurement_bytes_never_break_the_controller(scenario):
+    """500 corrupted measurements (bytes flipped anywhere, truncated, extended) between good
+    ones, straight into the node's callback: each is answered or refused as malformed (no
+    exception), the filter state stays finite and every answer is finite."""
+    T = load_scenario(scenario).sample_period_s
+    ctrl = FootController("fc_fuzz", parameter_overrides=params(scenario=scenario, foot_id="DL"))
+    answers = []
+    ctrl.pub.publish = lambda data: answers.append(m.stamped_value(data, "z")[1])
+    rng = np.random.default_rng(11)
+    meas = m.Measurement("acceleration", "DL")
+    try:
+        for k in range(500):
+            good = meas.fill(m.sample_ns(2 * k, T), float(np.sin(0.1 * k)))
+            ctrl._on_measurement(good)
+            bad = bytearray(meas.fill(m.sample_ns(2 * k + 1, T), float(np.cos(0.1 * k))))
+            kind = k % 3
+            if kind == 0:
+                for i in rng.integers(0, len(bad), 3):
+                    bad[i] = int(rng.integers(0, 256))
+            elif kind == 1:
+                bad = bad[:int(rng.integers(0, len(bad)))]
+            else:
+                bad += rng.bytes(int(rng.integers(1, 64)))
+            ctrl._on_measurement(bytes(bad))
+    finally:
+        ctrl.destroy_node()
+    counts = ctrl.counts
+    assert len(answers) + counts["malformed"] == 1000
+    assert all(math.isfinite(f) for f in answers)
+    assert all(math.isfinite(z) for z in ctrl.ctrl.filter.state)
+    assert counts["malformed"] > 0 and counts["implausible"] + counts["future"] + counts["stale"] > 0
