@@ -19,6 +19,7 @@ from rotor_avc.analysis.design_check import DesignError
 from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
+from rotor_avc.nodes.plant_simulator import PlantSimulator
 from rotor_avc.nodes.runtime import ParameterError
 from rotor_avc.scenario import load_scenario
 
@@ -178,6 +179,12 @@ def test_unstable_design_is_refused_at_start_up(tmp_path):
         f"  {f}: {{ki: -1.4e+5}}\n" for f in ("DL", "DR", "NL")))
     with pytest.raises(DesignError, match="fc_unstable.*UNSTABLE.*damping ratio -"):
         FootController("fc_unstable", parameter_overrides=params(scenario=str(path), foot_id="DL"))
+    with pytest.raises(DesignError, match="plant_unstable.*UNSTABLE.*allow_unstable"):
+        PlantSimulator("plant_unstable", parameter_overrides=params(scenario=str(path)))
+    allowed = tmp_path / "allowed.yaml"
+    allowed.write_text(f"include: {path}\ncontrol: {{allow_unstable: true}}\n")
+    FootController("fc_allowed", parameter_overrides=params(scenario=str(allowed),
+                                                            foot_id="DL")).destroy_node()
 
 
 def test_fuzzed_measurement_bytes_never_break_the_controller(scenario):
