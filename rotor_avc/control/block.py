@@ -22,7 +22,11 @@ Faults never reach the filter (the state stays finite and nothing latches):
   resets the filter to rest and answers the safe output (counted as ``filter_reset``);
 * with a force or rate limit, anti-windup defaults to ``back_calculation`` (a saturated
   integrator would otherwise hold the limit for as long as the excess it built up: after one
-  large spike, for good).
+  large spike, for good). With it the stored state stays at the limit, so a controller whose
+  integrator forgets (``leak_hz``, or a PI on displacement) is back on its normal output within
+  a few of its time constants (tested); a pure integrator on a derivative signal keeps the force
+  it reached (the held-force drift mode of :mod:`rotor_avc.analysis.sampled_loop`) -- give it
+  a leak where spikes inside the plausible range are expected.
 
 :func:`build_digital_controllers` builds one block per controlled actuator of a
 :class:`rotor_avc.machine.Machine` from its config::
@@ -177,10 +181,6 @@ class DigitalController:
             return force
         self.last_force_n = -y
         return -y
-
-    def accepts(self, measurement: float) -> bool:
-        """Whether :meth:`step` would take ``measurement`` (finite, within the plausible range)."""
-        return -self.measurement_limit <= measurement <= self.measurement_limit
 
     def describe(self) -> str:
         extras = []
