@@ -32,7 +32,7 @@ COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analys
 
 #: per-foot keys the digital controller reads (rotor_avc.control); allowed next to G_c(s)
 RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
-                           "back_calculation_gain", "delay_samples")
+                           "back_calculation_gain", "delay_samples", "measurement_limit")
 
 
 @dataclass(frozen=True, eq=False)

@@ -32,9 +32,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from .analysis.active_bearing_ff import feedforward_method, synchronous_generator
+from .analysis.design_check import natural_frequencies_hz
 from .balancing.loop_block import LoopBalancer
 from .balancing.scenario import machine_setup
 from .control.block import build_digital_controllers
@@ -117,23 +117,22 @@ class Scenario:
         return harmonic_from_config(self.machine, self.sample_period_s,
                                     self.profile.max_speed_rad_s, self.damping.whirl_rad_s)
 
-    def run(self, progress: bool | None = None, balancer=None, harmonic=None) -> TimeSeries:
+    def run(self, progress: bool | None = None, balancer=None, harmonic=None,
+            controllers=None) -> TimeSeries:
+        """The run in the in-process loop (blocks built from the config unless given)."""
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
         harmonic = self.harmonic() if harmonic is None else harmonic
-        return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
+        controllers = self.controllers() if controllers is None else controllers
+        return run_loop(self.stepper(), controllers, self.n_steps, balancer=balancer,
                         feedforward=self.feedforward(), harmonic=harmonic,
                         initial_state=self.initial_state, progress=progress, metadata=meta)
 
 
 def relevant_mode_hz(machine: Machine) -> float:
     """Highest of the first ``n_modes`` undamped natural frequencies at standstill (Hz)."""
-    p = machine.plant
-    n_modes = machine.analysis.worst_case.n_modes
-    w2 = scipy.linalg.eigh(p.stiffness, p.mass, eigvals_only=True)
-    w = np.sqrt(np.clip(w2, 0.0, None))
-    w = w[w > 1e-6 * max(w.max(), 1.0)]                  # rigid-body modes have no frequency
-    return float(w[:n_modes].max() / (2 * math.pi)) if w.size else 0.0
+    f = natural_frequencies_hz(machine.plant)
+    return float(f[:machine.analysis.worst_case.n_modes].max()) if f.size else 0.0
 
 
 def _amplitudes(machine: Machine, sec) -> dict[str, complex]:

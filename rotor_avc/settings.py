@@ -166,6 +166,9 @@ class ControlSettings:
     method: str = setting("tustin", "discretisation of G_c(s)", choices=DISCRETIZATION_METHODS)
     prewarp_hz: float | None = setting(None, "tustin pre-warping frequency (below Nyquist)",
                                        unit="Hz", positive=True)
+    allow_unstable: bool = setting(False, "run a design the checks refuse as unstable "
+                                   "(deliberate instability studies), with a warning "
+                                   "(`rotor_avc/analysis/design_check.py`)")
 
     @property
     def rate_hz(self) -> float:

@@ -139,6 +139,7 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
     try:
         assert spin_until(ex, lambda: pub.get_subscription_count() > 0, timeout_s=10)
         msg = AccelStamped()
+        msg.header.frame_id = "foot_DL"
         for k, value in sent:
             m.set_stamp(msg.header.stamp, m.sample_ns(k, T))
             msg.accel.linear.z = value
@@ -156,10 +157,14 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
         lis.node.destroy_node()
     got = [f for _, f in lis.forces["DL"]]
     np.testing.assert_allclose(got, expected, rtol=0, atol=0)
-    assert ctrl.faults == {"not_finite": 2, "stale": 1, "repeated": 1, "malformed": 1}
+    counts = ctrl.counts
+    assert {k: counts[k] for k in ("implausible", "stale", "repeated", "malformed", "future",
+                                   "wrong_frame", "dropped")} == {
+        "implausible": 2, "stale": 1, "repeated": 1, "malformed": 1, "future": 0,
+        "wrong_frame": 0, "dropped": 0}
     assert "malformed measurement ignored" in ctrl.last_fault
     warnings = [st.message for st in lis.statuses("warn")]
-    assert any("measurement nan" in w and "holding the safe output" in w for w in warnings)
+    assert any("implausible measurement nan" in w and "safe output" in w for w in warnings)
     assert any("stale measurement" in w for w in warnings)
 
 

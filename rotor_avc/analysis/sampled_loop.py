@@ -112,13 +112,23 @@ class GainRange:
     stable_at_nominal: bool
     max_abs_z_nominal: float
     searched_up_to: float
+    searched_from: float = 1e-4
+
+    @property
+    def found(self) -> bool:
+        """Whether any factor searched gives a stable loop (else ``lower``/``upper`` are NaN)."""
+        return not np.isnan(self.lower)
 
     def describe(self, nominal: dict[str, str] | None = None) -> str:
+        state = (f"(nominal g = 1 {'stable' if self.stable_at_nominal else 'UNSTABLE'}, "
+                 f"max |z| = {self.max_abs_z_nominal:.6f})")
+        if not self.found:
+            return (f"{self.sample_rate_hz:g} Hz: no stable gain factor g in "
+                    f"[{self.searched_from:g}, {self.searched_up_to:g}] {state} -- the design "
+                    "itself (structure, sign, G_c poles or rate) must change")
         up = (f">= {self.searched_up_to:g} (stable over the whole search)" if np.isinf(self.upper)
               else f"{self.upper:.4g}")
-        txt = (f"{self.sample_rate_hz:g} Hz: stable gain factor {self.lower:.4g} < g < {up} "
-               f"(nominal g = 1 {'stable' if self.stable_at_nominal else 'UNSTABLE'}, "
-               f"max |z| = {self.max_abs_z_nominal:.6f})")
+        txt = f"{self.sample_rate_hz:g} Hz: stable gain factor {self.lower:.4g} < g < {up} {state}"
         return txt + ("".join(f"\n  {k}: {v}" for k, v in nominal.items()) if nominal else "")
 
 
@@ -313,7 +323,7 @@ class SampledLoop:
         start = i_nom if stable[i_nom] else (int(np.argmax(stable)) if stable.any() else None)
         if start is None:
             return GainRange(1 / self.sample_period_s, speed_rad_s, w_F, np.nan, np.nan, False,
-                             nominal, max_factor)
+                             nominal, max_factor, min_factor)
 
         def edge(g_in, g_out):
             while g_out / g_in - 1.0 > rtol:
@@ -333,7 +343,7 @@ class SampledLoop:
         else:                      # stable down to min_factor: 0 if the open loop is stable too
             lower = 0.0 if margin(0.0) < 1.0 else min_factor
         return GainRange(1 / self.sample_period_s, float(speed_rad_s), float(w_F), float(lower),
-                         float(upper), bool(nominal < 1.0), nominal, max_factor)
+                         float(upper), bool(nominal < 1.0), nominal, max_factor, min_factor)
 
 
 def machine_sampled_loop(machine, sample_period_s: float | None = None) -> SampledLoop:

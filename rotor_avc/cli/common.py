@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -47,3 +48,8 @@ def config_frf_speeds_hz(machine) -> np.ndarray:
         raise machine.config.section("analysis", {}).error(
             "frf_speed_hz", "missing", fix="add `frf_speed_hz: {start, stop, n}` or give --speed-hz")
     return np.linspace(rng.start, rng.stop, rng.n)
+
+
+def warn(command: str, text: str) -> None:
+    """A warning on stderr, as ``rotor-avc COMMAND: warning: text``."""
+    print(f"rotor-avc {command}: warning: {text}", file=sys.stderr)

@@ -5,13 +5,14 @@ import argparse
 import math
 from pathlib import Path
 
+from ..analysis.design_check import DesignError, check_design
 from ..analysis.poles import machine_poles
-from ..analysis.sampled_loop import SampledLoop
+from ..analysis.sampled_loop import SampledLoop, machine_sampled_loop
 from ..control.block import build_digital_controllers
 from ..errors import ModelError
 from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
-from .common import nonnegative_float
+from .common import nonnegative_float, warn
 
 NAME = "controller"
 HELP = ("Print a foot controller's continuous G_c(s) and discrete G_d(z) coefficients, plot "
@@ -45,7 +46,18 @@ def run(args) -> int:
     if args.foot not in machine.controllers:
         known = ", ".join(machine.controllers) or "none"
         raise ModelError(f"--foot {args.foot}: no controller at that foot; controlled feet: {known}")
-    T = None if args.rate_hz is None else 1.0 / args.rate_hz
+    T = 1.0 / (machine.control.rate_hz if args.rate_hz is None else args.rate_hz)
+    speed = 2 * math.pi * args.speed_hz
+    w_F = machine_poles(machine, speed).w_F
+    check = check_design(machine, T, [speed], lambda _: w_F)
+    try:
+        for text in check.enforce(machine.control.allow_unstable, f"{machine.plant.name}"):
+            warn(NAME, text)
+    except DesignError as exc:
+        if check.fatal:
+            raise
+        rng = machine_sampled_loop(machine, T).stable_gain_range(speed, w_F)
+        raise DesignError(f"{exc}; {rng.describe()}") from None
     blocks = build_digital_controllers(machine, T)
     ctrl, block = machine.controllers[args.foot], blocks[args.foot]
     fmt = lambda v: "[" + ", ".join(f"{x:.10g}" for x in v) + "]"  # noqa: E731
@@ -56,14 +68,12 @@ def run(args) -> int:
     path = plot_bode(ctrl, block.tf, args.out / f"controller_{args.foot}_bode.png",
                      f"{machine.plant.name} {args.foot}: {ctrl.describe()}")
     print(f"wrote {path}")
-    speed = 2 * math.pi * args.speed_hz
-    w_F = machine_poles(machine, speed).w_F
     rng = SampledLoop.from_blocks(machine.plant, blocks).stable_gain_range(speed, w_F)
     print(f"stable gain range of the sampled loop (all {len(blocks)} controllers scaled by g; "
           f"f_r = {args.speed_hz:g} Hz, w_F = {w_F:.1f} rad/s):")
     nominal = {k: ", ".join(f"{name} {v * rng.lower:.4g} .. "
                             + ("inf" if math.isinf(rng.upper) else f"{v * rng.upper:.4g}")
                             for name, v in c.gains if name in GAIN_KEYS)
-               for k, c in machine.controllers.items() if c.gains}
+               for k, c in machine.controllers.items() if c.gains and rng.found}
     print("  " + rng.describe(nominal))
     return 0

@@ -6,8 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.design_check import DivergenceError, check_scenario, divergence, fault_summary
 from ..recording import write_run_bag
 from ..scenario import load_scenario
+from .common import warn
 
 NAME = "simulate"
 HELP = ("Run a simulation scenario (machine config + `simulation:` section) in the in-process "
@@ -27,13 +29,24 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     scenario = load_scenario(args.scenario)
+    check = check_scenario(scenario)
+    for text in check.enforce(scenario.machine.control.allow_unstable,
+                              scenario.machine.config.source):
+        warn(NAME, text)
     plant = scenario.machine.plant
     print(f"{plant.name}: {scenario.duration_s:g} s at {1 / scenario.sample_period_s:g} Hz "
           f"({scenario.n_steps} samples), {len(scenario.machine.controllers)} controller(s), "
           f"{scenario.damping.describe()}, start: {scenario.initial_state}")
     t0 = time.perf_counter()
-    ts = scenario.run(progress=args.progress)
+    blocks = scenario.controllers()
+    with np.errstate(over="ignore", invalid="ignore"):     # a diverging run is said below
+        ts = scenario.run(progress=args.progress, controllers=blocks)
     wall = time.perf_counter() - t0
+    why = divergence(ts, check, blocks)
+    if why:
+        raise DivergenceError(f"{why} -- nothing written")
+    for text in fault_summary(blocks):
+        warn(NAME, text)
     if args.out.suffix == ".mcap":
         args.out.parent.mkdir(parents=True, exist_ok=True)
         path = write_run_bag(args.out, scenario, ts)

@@ -10,6 +10,24 @@ with ``G_d`` the discretised ``G_c`` (:mod:`rotor_avc.control.discretize`), ``d`
 ``delay_samples``, and ``lim`` the force and rate limits with anti-windup
 (:mod:`rotor_avc.control.limits`). Everything per sample is plain Python floats.
 
+Faults never reach the filter (the state stays finite and nothing latches):
+
+* a measurement outside ``|signal| <= measurement_limit`` (a physical range in the signal's SI
+  unit; from a config, default :data:`PLAUSIBLE_LIMITS` of the feedback kind), or not finite
+  (the limit of a block built without one), is rejected: the
+  filter is not stepped, the block answers its safe output (``hold``: the last force, or
+  ``zero``) and counts it in :attr:`DigitalController.faults`; the next plausible measurement
+  steps the filter as if the rejected one had not come (recovery in one sample);
+* an output that is not finite (only an unstable ``G_c`` run with ``allow_unstable`` gets there)
+  resets the filter to rest and answers the safe output (counted as ``filter_reset``);
+* with a force or rate limit, anti-windup defaults to ``back_calculation`` (a saturated
+  integrator would otherwise hold the limit for as long as the excess it built up: after one
+  large spike, for good). With it the stored state stays at the limit, so a controller whose
+  integrator forgets (``leak_hz``, or a PI on displacement) is back on its normal output within
+  a few of its time constants (tested); a pure integrator on a derivative signal keeps the force
+  it reached (the held-force drift mode of :mod:`rotor_avc.analysis.sampled_loop`) -- give it
+  a leak where spikes inside the plausible range are expected.
+
 :func:`build_digital_controllers` builds one block per controlled actuator of a
 :class:`rotor_avc.machine.Machine` from its config::
 
@@ -20,17 +38,28 @@ with ``G_d`` the discretised ``G_c`` (:mod:`rotor_avc.control.discretize`), ``d`
     controllers:
       DL: {type: I, feedback: acceleration, ki: 1.4e+5,
            force_limit_n: 2000.0, rate_limit_n_per_s: 1.0e+6,
-           anti_windup: back_calculation, back_calculation_gain: 50.0, delay_samples: 0}
+           anti_windup: back_calculation, back_calculation_gain: 50.0, delay_samples: 0,
+           measurement_limit: 1.0e+4}       # m/s^2 here; beyond it a measurement is rejected
 """
 from __future__ import annotations
 
 import math
+import sys
 from collections import deque
 
 from ..errors import ConfigError, ModelError
 from .discretize import DiscreteTf, check_period, discretize_controller
 from .filter import IirFilter
+from .spec import FEEDBACK_UNITS as UNITS
 from .limits import ANTI_WINDUP, OutputLimits, check_anti_windup, limited_step
+
+#: default plausible range ``|signal| <= limit`` per feedback kind (SI): far beyond what a foot of
+#: a running machine sees (1 m; 100 m/s; 1e5 m/s^2 = 10,000 g, beyond most accelerometers'
+#: range), so only a broken sensor or a corrupted message gets there
+PLAUSIBLE_LIMITS = {"displacement": 1.0, "velocity": 100.0, "acceleration": 1.0e5}
+SAFE_OUTPUTS = ("hold", "zero")
+#: the fault counters of a block (:attr:`DigitalController.faults`)
+FAULT_KINDS = ("implausible", "filter_reset")
 
 
 class DigitalController:
@@ -39,6 +68,7 @@ class DigitalController:
     def __init__(self, tf: DiscreteTf, *, force_limit_n: float | None = None,
                  rate_limit_n_per_s: float | None = None, anti_windup: str = "none",
                  back_calculation_gain: float | None = None, delay_samples: int = 0,
+                 measurement_limit: float | None = None, safe_output: str = "hold",
                  name: str = ""):
         if isinstance(delay_samples, bool) or not isinstance(delay_samples, int) or delay_samples < 0:
             raise ModelError(f"delay_samples must be an integer >= 0 (got {delay_samples!r})")
@@ -55,6 +85,26 @@ class DigitalController:
         self._limited = self.limits.active
         self._delay: deque[float] = deque([0.0] * delay_samples)
         self.last_force_n = 0.0
+        limit = sys.float_info.max if measurement_limit is None else measurement_limit
+        if not (math.isfinite(limit) and limit > 0):
+            raise ModelError(f"measurement_limit must be finite and > 0 (got {limit})")
+        self.measurement_limit = float(limit)
+        self.safe_output = safe_output
+        self.faults = dict.fromkeys(FAULT_KINDS, 0)
+
+    @property
+    def safe_output(self) -> str:
+        return self._safe
+
+    @safe_output.setter
+    def safe_output(self, policy: str) -> None:
+        if policy not in SAFE_OUTPUTS:
+            raise ModelError(f"unknown safe_output {policy!r}; use one of " + ", ".join(SAFE_OUTPUTS))
+        self._safe = policy
+
+    def safe_force_n(self) -> float:
+        """The force answered for a rejected measurement (policy :attr:`safe_output`)."""
+        return self.last_force_n if self._safe == "hold" else 0.0
 
     # -- state -------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -111,9 +161,10 @@ class DigitalController:
     def step(self, measurement: float) -> float:
         """Measured signal at ``t_k`` -> actuator force (N) to hold over ``[t_k, t_k+1)``."""
         measurement = float(measurement)          # numpy scalars would slow every later step
-        if not math.isfinite(measurement):
-            raise ModelError(f"{self.name or 'controller'}: non-finite measurement {measurement} "
-                             "(sensor fault?) -- the controller state was left unchanged")
+        limit = self.measurement_limit
+        if not -limit <= measurement <= limit:   # also false for NaN
+            self.faults["implausible"] += 1
+            return self.safe_force_n()
         if self.delay_samples:
             self._delay.append(measurement)
             measurement = self._delay.popleft()
@@ -121,6 +172,13 @@ class DigitalController:
             y = limited_step(self.filter, measurement, self.limits, self.anti_windup, self._kb)
         else:
             y = self.filter.step(measurement)
+        if y - y != 0.0:                          # inf or NaN: an unstable G_c ran away
+            self.faults["filter_reset"] += 1
+            force = self.safe_force_n()
+            self.reset()
+            self.last_force_n = force
+            self.limits.reset(-force)
+            return force
         self.last_force_n = -y
         return -y
 
@@ -134,6 +192,9 @@ class DigitalController:
             extras.append(f"anti-windup {self.anti_windup}")
         if self.delay_samples:
             extras.append(f"{self.delay_samples} extra delay samples")
+        if self.measurement_limit < sys.float_info.max:
+            extras.append(f"measurements beyond +-{self.measurement_limit:g} "
+                          f"{UNITS[self.feedback]} rejected ({self._safe})")
         head = f"{self.name}: " if self.name else ""
         return head + self.tf.describe() + ("\n  " + ", ".join(extras) if extras else "")
 
@@ -168,13 +229,17 @@ def build_digital_controllers(machine, sample_period_s: float | None = None
         force_limit = opt("force_limit_n", positive=True, unit="N")
         rate_limit = opt("rate_limit_n_per_s", positive=True, unit="N/s")
         kb = opt("back_calculation_gain", positive=True, unit="1/s")
-        anti_windup = sec.choice("anti_windup", ANTI_WINDUP, default="none")
+        measurement_limit = (opt("measurement_limit", positive=True, unit=UNITS[ctrl.feedback])
+                             or PLAUSIBLE_LIMITS[ctrl.feedback])
+        limited = force_limit is not None or rate_limit is not None
+        anti_windup = sec.choice("anti_windup", ANTI_WINDUP,
+                                 default="back_calculation" if limited else "none")
         delay = sec.integer("delay_samples", 0, minimum=0, maximum=1000)
         try:
             blocks[act_id] = DigitalController(
                 tf, force_limit_n=force_limit, rate_limit_n_per_s=rate_limit,
                 anti_windup=anti_windup, back_calculation_gain=kb, delay_samples=delay,
-                name=act_id)
+                measurement_limit=measurement_limit, name=act_id)
         except ModelError as exc:
             key = "back_calculation_gain" if "back_calculation_gain" in str(exc) else "anti_windup"
             raise sec.error(key, str(exc)) from None

@@ -25,6 +25,7 @@ from ..config import Section
 from ..errors import ConfigError, ModelError
 
 FEEDBACK_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
+FEEDBACK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
 STRUCTURES = ("P", "I", "PI", "PD", "PID", "lead_lag", "tf", "none")
 
 

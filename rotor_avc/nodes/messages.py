@@ -31,7 +31,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PointStamped, TwistStamped, WrenchStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState  # noqa: F401  (Imu re-exported)
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from ..bag.cdr import CdrCodec, Layout
@@ -156,17 +156,30 @@ def _vector_offset(data) -> int:
     return 4 + (12 + n + 7) // 8 * 8
 
 
-def stamped_value(data: bytes, axis: str = "z") -> tuple[int, float]:
+#: bytes from the first field after an Imu's Header (orientation) to its linear_acceleration:
+#: orientation (4 float64), orientation_covariance (9), angular_velocity (3), its covariance (9)
+IMU_ACCELERATION_SKIP = 8 * (4 + 9 + 3 + 9)
+
+
+def stamped_value(data: bytes, axis: str = "z", skip: int = 0) -> tuple[int, float]:
     """``(stamp in ns, axis component)`` of a serialised foot measurement or actuator force
-    (see :class:`StampedVector`); ValueError for bytes that are not one."""
+    (see :class:`StampedVector`), or with ``skip = IMU_ACCELERATION_SKIP`` of a
+    ``sensor_msgs/Imu``'s ``linear_acceleration``; ValueError for bytes that are not one."""
     try:
         if data[1] != _CDR_LE:
             raise ValueError("not little-endian CDR")
         sec, nanosec = _STAMP.unpack_from(data, 4)
-        (value,) = _F64.unpack_from(data, _vector_offset(data) + 8 * "xyz".index(axis))
+        (value,) = _F64.unpack_from(data, _vector_offset(data) + skip + 8 * "xyz".index(axis))
     except (struct.error, IndexError) as exc:
         raise ValueError(f"not a stamped vector message ({exc})") from None
     return sec * _BILLION + nanosec, value
+
+
+def frame_id_prefix(frame_id: str) -> bytes:
+    """The serialised ``header.frame_id`` (length, characters, NUL) as it follows the stamp at
+    byte 12 of a message that begins with a Header: ``data.startswith(prefix, 12)`` checks it."""
+    text = frame_id.encode()
+    return _U32.pack(len(text) + 1) + text + b"\0"
 
 
 class MessageError(ValueError):

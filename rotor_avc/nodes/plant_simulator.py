@@ -62,7 +62,7 @@ from . import taps
 from .lockstep import AnswerBook
 from .plant_params import (EXIT_RATE_NOT_HELD, EXIT_RECORDER_LOST, PARAMS, RATE_CHECK_OVERRUNS,
                            RATE_CHECK_S)
-from .runtime import declare_parameters, node_scenario, run_node
+from .runtime import check_node_design, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming, Schedule
 
 class PlantSimulator(Node):
@@ -73,6 +73,7 @@ class PlantSimulator(Node):
         self.p = declare_parameters(self, PARAMS)
         self.executor_kind = self.p["executor"]
         self.scenario = node_scenario(self, self.p["scenario"], "a scenario config")
+        check_node_design(self, self.scenario)
         sc = self.scenario
         self.T = sc.sample_period_s
         self.n_steps = (max(1, int(round(self.p["duration_s"] / self.T))) if self.p["duration_s"]

@@ -109,6 +109,14 @@ def node_scenario(node: Node, name: str, needs: str):
     return load_scenario(name)
 
 
+def check_node_design(node: Node, scenario) -> None:
+    """Refuse an unstable or improper design before the node runs it (DesignError, exit status
+    2), unless ``control.allow_unstable``; log the warnings (rotor_avc.analysis.design_check)."""
+    from ..analysis.design_check import enforce_scenario      # not needed by every node
+    for text in enforce_scenario(scenario, f"{node.get_name()}: {scenario.machine.config.source}"):
+        node.get_logger().warning(text)
+
+
 def make_executor(kind: str, context=None):
     """The executor ``kind`` (one of EXECUTORS) in ``context`` (default: rclpy's)."""
     if kind == "events":
