@@ -179,12 +179,12 @@ def test_timed_replay_keeps_the_recorded_timing(run):
     np.testing.assert_array_equal(values, recorded["accel.linear.z"])
     schedule = (stamps - stamps[0]) * 1e-9 / rate
     lateness = arrival - schedule                   # + a constant: when the replay started
-    typical = np.median(lateness)
-    assert np.min(lateness - typical) > -0.03       # none ahead of the schedule (+ jitter)
-    # no drift: the schedule is absolute, so late messages (a busy machine) do not delay the
-    # later ones -- the typical lateness at the end is not above that at the start
-    assert np.median(lateness[-100:]) - np.median(lateness[:100]) < 0.05
-    assert lateness[-1] - typical < 1.0
+    # a delivery's delay has a floor (the replay's start) and a long tail on a busy machine. A
+    # late start is caught up (the schedule is absolute: the floor falls early on); after that
+    # the floor stays put over the second half of the run: the replay neither runs ahead of the
+    # scaled schedule (the floor would keep falling) nor drifts behind it (it would rise)
+    floors = np.array([np.min(part) for part in np.array_split(lateness, 10)])
+    assert np.all(np.diff(floors) < 0.03) and np.ptp(floors[5:]) < 0.03, floors
 
 
 def test_plan_errors_name_the_topic_and_fix(run):
