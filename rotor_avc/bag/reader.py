@@ -12,7 +12,9 @@ Every problem is a :class:`~rotor_avc.bag.errors.BagError` naming it: no such fi
 (0-byte) file, not MCAP, a truncated file (no footer: the recording was killed -- finish it
 with :func:`rotor_avc.bag.recover.recover_bag`), not the ``ros2`` profile, a topic whose schema
 cannot be decoded (unknown encoding, IDL, a missing dependency), no configuration metadata, a
-bag or topic without messages.
+bag or topic without messages. With ``integrity=True`` the file first goes through the
+streaming integrity pass (:mod:`.integrity`: CRCs, indexes, statistics, schemas, duplicates
+against the data), which raises :class:`~rotor_avc.bag.errors.CorruptBagError` (exit status 4).
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ from mcap.reader import SeekingReader
 
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
+from .integrity import verify
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
@@ -95,9 +98,17 @@ class TopicSeries:
 class BagReader:
     """Open a bag for reading (a context manager; also usable without ``with``)."""
 
-    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False):
+    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False,
+                 integrity: bool = False):
         self.path = Path(path)
         self._file = self._open_checked()
+        self.integrity = None
+        if integrity:
+            try:
+                self.integrity = verify(self.path)
+            except BagError:
+                self.close()
+                raise
         try:
             self._reader = SeekingReader(self._file, validate_crcs=True)
             header = self._reader.get_header()

@@ -65,7 +65,7 @@ def _unique(series):
 def read_run(path) -> RecordedRun:
     """Read ``path`` (see the module docstring)."""
     path = Path(path)
-    with BagReader(path, require_config=True, require_messages=True) as bag:
+    with BagReader(path, require_config=True, require_messages=True, integrity=True) as bag:
         config = bag.config
         scenario = scenario_from_config(config["machine"], f"{path} (recorded configuration)")
         recorded = config.get("damping")
