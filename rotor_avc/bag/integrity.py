@@ -39,20 +39,24 @@ from pathlib import Path
 import numpy as np
 import yaml
 from mcap.data_stream import ReadDataStream
-from mcap.records import Channel, ChunkIndex, Footer, Metadata, MetadataIndex, Schema, Statistics
+from mcap.exceptions import McapError
+from mcap.records import (Channel, ChunkIndex, Footer, Metadata, MetadataIndex, Schema,
+                          Statistics, SummaryOffset)
 
 from . import records as R
-from .cdr import CdrCodec, CdrError
+from .cdr import CdrCodec, CdrError, Layout
 from .errors import BagError, CorruptBagError
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_counts, load_yaml, parse_qos_yaml
-from .msgdefs import DEFINITIONS, MsgDefError, known_specs, parse_schema, type_hash
+from .msgdefs import (DEFINITIONS, MsgDefError, full_name, known_specs, parse_schema,
+                      type_hash)
 from .topics import SAMPLED, message_type
 
 #: share of a sampled topic's messages that may repeat a sample (lockstep resends)
 RESENDS_ALLOWED = 0.01
 #: problems kept in a report (the total is counted)
 PROBLEMS_KEPT = 25
+_READ_ERRORS = (ValueError, struct.error, UnicodeDecodeError, IndexError, EOFError, McapError)
 _ENTRY = np.dtype([("time", "<u8"), ("offset", "<u8")])     # a message index entry
 
 
@@ -155,12 +159,14 @@ class _Pass:
         self.f = f
         self.report = IntegrityReport(path, size_bytes=path.stat().st_size)
         self.codecs: dict[int, CdrCodec | None] = {}
+        self.layouts: dict[int, Layout] = {}       # the last structure seen per channel
         self.known = known_specs()
         self.chunks: dict[int, dict] = {}          # offset -> what the chunk index must say
         self.metadata_at: dict[int, tuple[str, int]] = {}
         self.summary: dict[str, list] = {"schema": [], "channel": [], "statistics": [],
-                                         "chunk_index": [], "metadata_index": []}
+                                         "chunk_index": [], "metadata_index": [], "summary_offset": []}
         self.footer: Footer | None = None
+        self.summary_layout: list[tuple[int, int, int]] = []    # (opcode, start, end)
 
     # -- the walk --------------------------------------------------------------------------
     def run(self) -> IntegrityReport:
@@ -180,6 +186,7 @@ class _Pass:
                     pending = None
                 if in_summary and rec.opcode != R.OP_FOOTER:
                     summary_crc = zlib.crc32(rec.body, zlib.crc32(raw_head, summary_crc))
+                    self.summary_layout.append((rec.opcode, rec.offset, rec.end))
                 if rec.opcode == R.OP_DATA_END:
                     self._data_end(rec, data_crc)
                     in_summary, summary_start = True, rec.end
@@ -246,7 +253,9 @@ class _Pass:
                 self.summary["chunk_index"].append(self._read(ChunkIndex, rec))
             elif rec.opcode == R.OP_METADATA_INDEX:
                 self.summary["metadata_index"].append(self._read(MetadataIndex, rec))
-        except (ValueError, struct.error, UnicodeDecodeError, IndexError, EOFError) as exc:
+            elif rec.opcode == R.OP_SUMMARY_OFFSET:
+                self.summary["summary_offset"].append(self._read(SummaryOffset, rec))
+        except _READ_ERRORS as exc:
             rep.add("structure", f"record at byte {rec.offset}",
                     f"opcode 0x{rec.opcode:02x} cannot be read ({exc})")
 
@@ -290,7 +299,11 @@ class _Pass:
             specs = parse_schema(schema.name, schema.data.decode())
             codec = CdrCodec(schema.name, specs)
         except (MsgDefError, UnicodeDecodeError) as exc:
-            rep.undecodable[channel.topic] = f"schema {schema.name!r} cannot be parsed ({exc})"
+            problem = f"schema {schema.name!r} cannot be parsed ({exc})"
+            if _full(schema.name) in DEFINITIONS:     # a standard type's text must be its own
+                rep.add("schema", where, problem)
+            else:
+                rep.undecodable[channel.topic] = problem
             return None
         for name, spec in specs.items():
             if name in DEFINITIONS and spec != self.known[name]:
@@ -346,12 +359,16 @@ class _Pass:
         except R.RecordError as exc:
             rep.add("chunk", where, f"its records do not fit together ({exc})")
             return
-        for opcode, _, body in msgs.others:
+        for opcode, at, body in msgs.others:
             stream = ReadDataStream(BytesIO(body))
-            if opcode == R.OP_SCHEMA:
-                self._add_schema(Schema.read(stream), rec.offset)
-            else:
-                self._add_channel(Channel.read(stream), rec.offset)
+            try:
+                if opcode == R.OP_SCHEMA:
+                    self._add_schema(Schema.read(stream), rec.offset)
+                else:
+                    self._add_channel(Channel.read(stream), rec.offset)
+            except _READ_ERRORS as exc:
+                rep.add("structure", f"{where}, record at byte {at} of the chunk",
+                        f"unreadable ({exc})")
         if len(msgs.log_time) and (int(msgs.log_time.min()) != chunk.start_ns
                                    or int(msgs.log_time.max()) != chunk.end_ns):
             rep.add("chunk", where, f"says its messages span {chunk.start_ns}-{chunk.end_ns} ns, "
@@ -418,7 +435,10 @@ class _Pass:
         sizes = msgs.size[mask]
         try:
             if np.all(sizes == sizes[0]):
-                layout = codec.layout(msgs.payload(data, mask[0]))
+                layout = self.layouts.get(t.channel_id)
+                if layout is None or layout.size != sizes[0]:
+                    layout = codec.layout(msgs.payload(data, mask[0]))
+                    self.layouts[t.channel_id] = layout
                 starts = msgs.offset[mask] + MESSAGE_HEADER.size
                 if all(np.all(buf[starts[:, None] + off + np.arange(4)].copy().view("<u4")[:, 0]
                               == value) for off, value in layout.prefixes.items()):
@@ -461,7 +481,7 @@ class _Pass:
     def _footer(self, rec, summary_crc: int, summary_start) -> None:
         try:
             self.footer = self._read(Footer, rec)
-        except (ValueError, struct.error, EOFError) as exc:
+        except _READ_ERRORS as exc:
             self.report.add("structure", f"footer at byte {rec.offset}", f"unreadable ({exc})")
             return
         ft = self.footer
@@ -513,11 +533,34 @@ class _Pass:
         if s["chunk_index"]:
             for offset in found:
                 rep.add("chunk_index", f"chunk at byte {offset}", "no chunk index lists it")
+        self._check_summary_offsets()
         for mi in s["metadata_index"]:
             at = self.metadata_at.get(mi.offset)
             if at != (mi.name, mi.length):
                 rep.add("metadata_index", f"metadata {mi.name!r}", f"the index points at byte "
                         f"{mi.offset} (length {mi.length}), where no such record is")
+
+    def _check_summary_offsets(self) -> None:
+        """Each SummaryOffset must span exactly the summary's records of its opcode, and the
+        footer must point at the first of them."""
+        rep, layout = self.report, self.summary_layout
+        groups: dict[int, tuple[int, int]] = {}
+        for opcode, start, end in layout:
+            if opcode != R.OP_SUMMARY_OFFSET:
+                first, _ = groups.get(opcode, (start, end))
+                groups[opcode] = (first, end)
+        for so in self.summary["summary_offset"]:
+            span = groups.get(so.group_opcode)
+            if span is None or (so.group_start, so.group_start + so.group_length) != span:
+                rep.add("summary", f"summary offset of opcode 0x{so.group_opcode:02x}",
+                        f"says bytes {so.group_start}+{so.group_length}, the records are at "
+                        f"{span}")
+        offsets = [start for opcode, start, _ in layout if opcode == R.OP_SUMMARY_OFFSET]
+        if self.footer is not None and self.footer.summary_offset_start != (offsets[0] if offsets
+                                                                            else 0):
+            rep.add("summary", "footer", f"summary_offset_start is "
+                    f"{self.footer.summary_offset_start}, the summary offsets start at "
+                    f"{offsets[0] if offsets else 0}")
 
     def _check_statistics(self, stats: Statistics) -> None:
         rep = self.report
@@ -645,6 +688,13 @@ def check_rosbag2_info(rep: IntegrityReport, info, data: dict[str, TopicData],
 
 def _sampled(topic: str) -> bool:
     return bool(SAMPLED.match(topic))
+
+
+def _full(name: str) -> str:
+    try:
+        return full_name(name)
+    except MsgDefError:
+        return name
 
 
 def _fields(spec) -> str:
