@@ -39,7 +39,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
 from mcap.records import (Channel, ChunkIndex, Footer, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 
@@ -56,7 +55,6 @@ from .topics import SAMPLED, message_type
 RESENDS_ALLOWED = 0.01
 #: problems kept in a report (the total is counted)
 PROBLEMS_KEPT = 25
-_READ_ERRORS = (ValueError, struct.error, UnicodeDecodeError, IndexError, EOFError, McapError)
 _ENTRY = np.dtype([("time", "<u8"), ("offset", "<u8")])     # a message index entry
 
 
@@ -255,7 +253,7 @@ class _Pass:
                 self.summary["metadata_index"].append(self._read(MetadataIndex, rec))
             elif rec.opcode == R.OP_SUMMARY_OFFSET:
                 self.summary["summary_offset"].append(self._read(SummaryOffset, rec))
-        except _READ_ERRORS as exc:
+        except R.READ_ERRORS as exc:
             rep.add("structure", f"record at byte {rec.offset}",
                     f"opcode 0x{rec.opcode:02x} cannot be read ({exc})")
 
@@ -366,7 +364,7 @@ class _Pass:
                     self._add_schema(Schema.read(stream), rec.offset)
                 else:
                     self._add_channel(Channel.read(stream), rec.offset)
-            except _READ_ERRORS as exc:
+            except R.READ_ERRORS as exc:
                 rep.add("structure", f"{where}, record at byte {at} of the chunk",
                         f"unreadable ({exc})")
         if len(msgs.log_time) and (int(msgs.log_time.min()) != chunk.start_ns
@@ -481,7 +479,7 @@ class _Pass:
     def _footer(self, rec, summary_crc: int, summary_start) -> None:
         try:
             self.footer = self._read(Footer, rec)
-        except _READ_ERRORS as exc:
+        except R.READ_ERRORS as exc:
             self.report.add("structure", f"footer at byte {rec.offset}", f"unreadable ({exc})")
             return
         ft = self.footer

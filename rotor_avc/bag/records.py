@@ -17,6 +17,7 @@ from typing import BinaryIO, Iterator
 
 import numpy as np
 import zstandard
+from mcap.exceptions import McapError
 
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 
@@ -36,6 +37,10 @@ class RecordError(ValueError):
     def __init__(self, offset: int, problem: str):
         self.offset = offset
         super().__init__(f"record at byte {offset}: {problem}")
+
+
+#: what reading a damaged record's fields raises (RecordError is a ValueError)
+READ_ERRORS = (ValueError, struct.error, UnicodeDecodeError, IndexError, EOFError, McapError)
 
 
 @dataclass(frozen=True)
