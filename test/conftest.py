@@ -21,7 +21,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 #: ``ros_integration``: ROS processes, DDS, bags of the graph, colcon and pip layouts
 KINDS = {
     "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "bag_fuzz", "balancing_cli",
-             "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
+             "bag_check", "bag_cli", "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
              "config_errors", "config_keys", "control_block", "control_cli", "import_layers",
              "bag_sequence", "nodes_lockstep", "nodes_timing", "sim_profile", "sim_scenario",
              "sleeve_bearing_cli", "suite_kinds"),

@@ -96,6 +96,8 @@ def _format_lines(reports: list[IntegrityReport]) -> list[CheckLine]:
     encodings = sorted({c.message_encoding for r in reports for c in r.channels.values()})
     schemas = sorted({s.encoding for r in reports for s in r.schemas.values()})
     undecodable = {t: why for r in reports for t, why in r.undecodable.items()}
+    undecodable.update({p.where: p.detail for r in reports for p in r.problems
+                        if p.check == "schema"})
     return [
         CheckLine("profile", profiles == ["ros2"], f"profile {', '.join(profiles) or '(none)'}",
                   "write the bag with rosbag2's MCAP plugin or this package (profile ros2)"),
