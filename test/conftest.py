@@ -20,8 +20,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 #: ``cross_method``: two formulations, an independent library or a closed form agree;
 #: ``ros_integration``: ROS processes, DDS, bags of the graph, colcon and pip layouts
 KINDS = {
-    "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "bag_fuzz", "balancing_cli",
-             "bag_check", "bag_cli", "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
+    "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "balancing_cli",
+             "bag_check", "bag_cli", "bag_fuzz",
+             "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
              "config_errors", "config_keys", "control_block", "control_cli", "import_layers",
              "bag_sequence", "nodes_lockstep", "nodes_timing", "sim_profile", "sim_scenario",
              "sleeve_bearing_cli", "suite_kinds"),

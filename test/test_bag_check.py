@@ -78,8 +78,9 @@ def planted(tmp_path, *, encoding="cdr", schema_text=None, qos=None):
 @pytest.mark.parametrize("pitfall, kwargs", [
     ("message encoding", dict(encoding="json")),
     ("schemas", dict(schema_text="std_msgs/Header header\nAccel accel\n")),   # no dependencies
-    ("offered_qos_profiles", dict(qos={**DEFAULT_QOS, "depth": 0})),
-    ("offered_qos_profiles", dict(qos={**DEFAULT_QOS, "history": "unknown"})),
+    ("offered_qos_profiles", dict(qos={**DEFAULT_QOS, "depth": -1})),
+    ("offered_qos_profiles", dict(qos={**DEFAULT_QOS, "history": "keep_latest"})),
+    ("offered_qos_profiles", dict(qos={**DEFAULT_QOS, "deadline": 5})),
 ])
 def test_each_pitfall_is_one_problem_line(tmp_path, pitfall, kwargs):
     found = problems(planted(tmp_path, **kwargs))

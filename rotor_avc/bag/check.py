@@ -6,8 +6,8 @@ fix: the integrity pass (:mod:`.integrity`: CRCs, indexes, statistics, schemas, 
 against the data); profile ``ros2``; one message encoding, ``cdr``; complete ``ros2msg``
 schemas (every dependency's text present); ``offered_qos_profiles`` as rosbag2 writes them
 (:func:`qos_problems`); statistics, summary and chunk indexes and message indexes present (a
-file without them is read by scanning, and Foxglove cannot seek in it); log times in order per
-topic; the ``metadata.yaml`` information (the ``rosbag2`` record of a single file, or a
+file without them is read by scanning, and Foxglove cannot seek in it); log times in order on
+every sampled topic (a topic with several publishers, like ``/diagnostics``, is listed); the ``metadata.yaml`` information (the ``rosbag2`` record of a single file, or a
 directory's ``metadata.yaml``) consistent with the data: file list, per-file and per-topic
 counts, start and duration, types, QoS strings; and, for the package's own bags, every sample
 present (:mod:`.sequence`).
@@ -21,13 +21,12 @@ import yaml
 
 from .errors import BagError
 from .integrity import IntegrityReport, TopicData, check_rosbag2_info, scan_bag
-from .metadata import CONFIG_RECORD, DEFAULT_QOS, load_yaml
+from .metadata import CONFIG_RECORD, DEFAULT_QOS, QOS_CHOICES, load_yaml
 from .reader import BagReader
 from .sequence import check_sequence
+from .topics import SAMPLED
 
 METADATA_FILE = "metadata.yaml"
-#: QoS values a rosbag2 player of any supported distro accepts (strings of the version-9 form)
-_PLAYABLE_HISTORY = ("keep_last", "keep_all")
 
 
 @dataclass(frozen=True)
@@ -114,10 +113,11 @@ def _format_lines(reports: list[IntegrityReport]) -> list[CheckLine]:
 
 
 def qos_problems(text: str | None) -> list[str]:
-    """What keeps an ``offered_qos_profiles`` entry from being read as rosbag2 writes it: a
-    YAML list of profiles with every key of :data:`.metadata.DEFAULT_QOS`, durations as
-    ``{sec, nsec}``, and a history ``ros2 bag play`` can use (keep_last with depth >= 1, or
-    keep_all; older distros refuse ``unknown`` and depth 0)."""
+    """What keeps an ``offered_qos_profiles`` entry from being decoded as rosbag2 writes it: a
+    YAML list of profiles with every key of :data:`.metadata.DEFAULT_QOS`, enumerated values
+    rosbag2 knows (:data:`.metadata.QOS_CHOICES`; ``unknown`` history with depth 0 is what
+    ``ros2 bag record`` itself stores for a publisher), an integer depth >= 0 and durations as
+    ``{sec, nsec}`` of non-negative integers."""
     if text is None:
         return ["no offered_qos_profiles"]
     try:
@@ -134,15 +134,18 @@ def qos_problems(text: str | None) -> list[str]:
         missing = [k for k in DEFAULT_QOS if k not in p]
         if missing:
             out.append(f"profile {i} lacks {', '.join(missing)}")
+        for key, choices in QOS_CHOICES.items():
+            if key in p and p[key] not in choices:
+                out.append(f"profile {i}: {key} {p[key]!r} is not one of {', '.join(choices)}")
+        depth = p.get("depth")
+        if "depth" in p and not (isinstance(depth, int) and not isinstance(depth, bool)
+                                 and depth >= 0):
+            out.append(f"profile {i}: depth {depth!r} is not an integer >= 0")
         for key in ("deadline", "lifespan", "liveliness_lease_duration"):
             value = p.get(key)
-            if key in p and not (isinstance(value, dict) and set(value) == {"sec", "nsec"}):
-                out.append(f"profile {i}: {key} is not {{sec, nsec}}")
-        history, depth = p.get("history"), p.get("depth")
-        if history not in _PLAYABLE_HISTORY:
-            out.append(f"profile {i}: history {history!r} (players need keep_last or keep_all)")
-        elif history == "keep_last" and not (isinstance(depth, int) and depth >= 1):
-            out.append(f"profile {i}: keep_last with depth {depth!r} (needs >= 1)")
+            if key in p and not (isinstance(value, dict) and set(value) == {"sec", "nsec"}
+                                 and all(isinstance(v, int) and v >= 0 for v in value.values())):
+                out.append(f"profile {i}: {key} is not {{sec, nsec}} of integers >= 0")
     return out
 
 
@@ -152,8 +155,8 @@ def _qos_lines(reports) -> list[CheckLine]:
     return [CheckLine("offered_qos_profiles", not problems, "; ".join(problems[:5])
                       + (f" (+{len(problems) - 5} more)" if len(problems) > 5 else "")
                       or "every channel, in rosbag2's form",
-                      "store each channel's offered QoS as rosbag2's YAML list (history "
-                      "keep_last with depth >= 1, durations as {sec, nsec})")]
+                      "store each channel's offered QoS as rosbag2's YAML list (every key, "
+                      "rosbag2's enumeration strings, durations as {sec, nsec})")]
 
 
 def _index_lines(reports) -> list[CheckLine]:
@@ -163,6 +166,9 @@ def _index_lines(reports) -> list[CheckLine]:
               if not r.summary]
     unindexed = sum(r.chunks_without_index for r in reports)
     backwards = {t.topic: t.backwards for r in reports for t in r.topics.values() if t.backwards}
+    sampled = {t: n for t, n in backwards.items() if SAMPLED.match(t)}
+    others = "; ".join(f"{t}: {n} step(s) back (several publishers; readers sort by log time)"
+                       for t, n in sorted(backwards.items()) if t not in sampled)
     return [
         CheckLine("summary", not absent and not unread,
                   "; ".join(absent + unread) or "statistics, chunk indexes, schemas, channels "
@@ -172,9 +178,10 @@ def _index_lines(reports) -> list[CheckLine]:
                   f"{unindexed} chunk(s) without message indexes" if unindexed
                   else "every chunk indexed",
                   "rewrite the bag with message indexes (`rotor-avc bag recover BAG`)"),
-        CheckLine("log times in order", not backwards,
-                  "; ".join(f"{t}: {n} step(s) back" for t, n in sorted(backwards.items()))
-                  or "every topic", "write each topic's messages in log-time order"),
+        CheckLine("log times in order", not sampled,
+                  "; ".join(f"{t}: {n} step(s) back" for t, n in sorted(sampled.items()))
+                  or "every sampled topic" + (f"; {others}" if others else ""),
+                  "write each topic's messages in log-time order"),
     ]
 
 

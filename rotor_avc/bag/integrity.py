@@ -162,7 +162,8 @@ class _Pass:
         self.chunks: dict[int, dict] = {}          # offset -> what the chunk index must say
         self.metadata_at: dict[int, tuple[str, int]] = {}
         self.summary: dict[str, list] = {"schema": [], "channel": [], "statistics": [],
-                                         "chunk_index": [], "metadata_index": [], "summary_offset": []}
+                                         "chunk_index": [], "metadata_index": [],
+                                         "summary_offset": []}
         self.footer: Footer | None = None
         self.summary_layout: list[tuple[int, int, int]] = []    # (opcode, start, end)
 

@@ -70,7 +70,8 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    with BagReader(args.bag, require_config=True, require_messages=True, integrity=True) as reader:
+    with BagReader(args.bag, require_config=True, require_messages=True,
+                   integrity=True) as reader:
         for note in require_complete(reader).notes:
             print(f"note: {note}")
         try:
