@@ -4,7 +4,9 @@ A small bag of the package's topics (11 sampled topics, ~20 chunks) is damaged i
 
 * seeded single-bit flips at random offsets inside every record kind, in the file as written
   and "resealed" (CRCs recomputed after the flip, as a writer that computes them over wrong
-  records would do; then only the consistency checks can find the damage);
+  records would do; then only the consistency checks can find the damage); each file as
+  written is also recovered: a clear refusal, or a consistent bag of original messages only
+  (anything else only with a note naming the altered record);
 * the corruptions a hostile pass found passing a comparison: flipped bytes in message index
   records, a wrong statistics count, every message written twice, every other
   ``plant/observables`` message dropped, schema names renamed, the AccelStamped schema text
@@ -24,7 +26,7 @@ import zlib
 import numpy as np
 import pytest
 
-from rotor_avc.bag import BagReader, topics as T, write_bag
+from rotor_avc.bag import BagReader, recover_bag, topics as T, write_bag
 from rotor_avc.bag import records as R
 from rotor_avc.bag.errors import CorruptBagError
 from rotor_avc.bag.integrity import scan_bag
@@ -97,6 +99,31 @@ def outcome(path, original) -> str:
     return "correct" if same(result, original) else "WRONG NUMBERS"
 
 
+def message_set(path) -> set:
+    with BagReader(path) as bag:
+        return {(m.topic, m.time_ns, m.data) for m in bag.raw_messages()}
+
+
+def recovery_outcome(path, original: set) -> str:
+    """'refused' (a clear error), 'recovered' (a consistent bag of original messages only),
+    'recovered, noted' (anything else only with a note saying which record was altered) or
+    what went wrong."""
+    try:
+        result = recover_bag(path, path.with_suffix(".recovered.mcap"))
+    except RotorAvcError:
+        return "refused"
+    except Exception as exc:                       # noqa: BLE001 -- a traceback is the failure
+        return f"traceback {type(exc).__name__}: {exc}"
+    report = scan_bag(result.path)
+    kept = message_set(result.path) if report.ok else set()
+    if report.ok and kept <= original and len(kept) == result.messages:
+        return "recovered"
+    if result.notes:
+        return "recovered, noted"
+    return ("WRONG MESSAGES without a note" if report.ok
+            else "inconsistent output without a note: " + report.verdict())
+
+
 def layout(raw: bytes) -> list[R.Record]:
     return list(R.scan(io.BytesIO(raw), len(raw)))
 
@@ -137,7 +164,9 @@ def test_random_flips_in_every_record_kind(bag, tmp_path, resealed):
     rng = np.random.default_rng(20261201 + resealed)
     records = layout(raw)
     tally: dict[str, dict[str, int]] = {}
+    recoveries: dict[str, int] = {}
     failures = []
+    messages = message_set(path)
     targets = [(KIND_NAMES[r.opcode], r.offset, r.end) for r in records]
     targets += [("magic", 0, len(MAGIC)), ("magic", len(raw) - len(MAGIC), len(raw))]
     kinds = sorted({k for k, _, _ in targets})
@@ -162,9 +191,15 @@ def test_random_flips_in_every_record_kind(bag, tmp_path, resealed):
             tally[kind][result.split(":")[0]] += 1
             if result not in ("error", "correct"):
                 failures.append(f"{kind} byte {at}: {result}")
+            if not resealed:
+                recovered = recovery_outcome(case, messages)
+                recoveries[recovered.split(":")[0]] = recoveries.get(recovered.split(":")[0],
+                                                                     0) + 1
+                if recovered.split(":")[0] not in ("refused", "recovered", "recovered, noted"):
+                    failures.append(f"{kind} byte {at}: recovery {recovered}")
     cases = sum(sum(v.values()) for v in tally.values())
     print(f"\n{'resealed' if resealed else 'as written'}: {cases} cases",
-          {k: v for k, v in sorted(tally.items())})
+          {k: v for k, v in sorted(tally.items())}, "recovery:", recoveries)
     assert not failures, "\n".join(failures)
     assert cases == len(kinds) * FLIPS_PER_KIND
 

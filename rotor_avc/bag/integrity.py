@@ -55,6 +55,7 @@ from .topics import SAMPLED, message_type
 RESENDS_ALLOWED = 0.01
 #: problems kept in a report (the total is counted)
 PROBLEMS_KEPT = 25
+_KNOWN = known_specs()
 _ENTRY = np.dtype([("time", "<u8"), ("offset", "<u8")])     # a message index entry
 
 
@@ -158,7 +159,6 @@ class _Pass:
         self.report = IntegrityReport(path, size_bytes=path.stat().st_size)
         self.codecs: dict[int, CdrCodec | None] = {}
         self.layouts: dict[int, Layout] = {}       # the last structure seen per channel
-        self.known = known_specs()
         self.chunks: dict[int, dict] = {}          # offset -> what the chunk index must say
         self.metadata_at: dict[int, tuple[str, int]] = {}
         self.summary: dict[str, list] = {"schema": [], "channel": [], "statistics": [],
@@ -294,25 +294,18 @@ class _Pass:
         if schema.encoding != "ros2msg":
             rep.undecodable[channel.topic] = f"schema encoding {schema.encoding!r}"
             return None
-        try:
-            specs = parse_schema(schema.name, schema.data.decode())
-            codec = CdrCodec(schema.name, specs)
-        except (MsgDefError, UnicodeDecodeError) as exc:
-            problem = f"schema {schema.name!r} cannot be parsed ({exc})"
-            if _full(schema.name) in DEFINITIONS:     # a standard type's text must be its own
-                rep.add("schema", where, problem)
-            else:
-                rep.undecodable[channel.topic] = problem
+        problem = standard_text_problem(schema.name, schema.data)
+        if problem:
+            rep.add("schema", where, problem)
             return None
-        for name, spec in specs.items():
-            if name in DEFINITIONS and spec != self.known[name]:
-                rep.add("schema", where, f"the schema text of {schema.name} defines {name} "
-                        f"as ({_fields(spec)}), not as the standard ({_fields(self.known[name])})")
-                return None
-        claimed = channel.metadata.get("topic_type_hash", "")
-        if claimed.startswith("RIHS01_") and type_hash(schema.name, specs) != claimed:
-            rep.add("schema", where, f"topic_type_hash {claimed[:20]}... is not the hash of "
-                    f"the schema text of {schema.name} (renamed or altered type)")
+        try:
+            codec = CdrCodec(schema.name, parse_schema(schema.name, schema.data.decode()))
+        except (MsgDefError, UnicodeDecodeError) as exc:
+            rep.undecodable[channel.topic] = f"schema {schema.name!r} cannot be parsed ({exc})"
+            return None
+        problem = hash_problem(channel, schema)
+        if problem:
+            rep.add("schema", where, problem)
         return codec
 
     # -- messages --------------------------------------------------------------------------
@@ -683,6 +676,37 @@ def check_rosbag2_info(rep: IntegrityReport, info, data: dict[str, TopicData],
         if got_start != start or got_duration != duration:
             rep.add("rosbag2", where, f"starting_time {got_start} ns / duration {got_duration} "
                     f"ns, the data spans {start} ns + {duration} ns")
+
+
+def standard_text_problem(name: str, data: bytes) -> str | None:
+    """Why the ``ros2msg`` text ``data`` of schema ``name`` is not the definition of the
+    standard types it names (:mod:`.msgdefs`), or None (also for a foreign type, which is
+    fine when its messages decode)."""
+    try:
+        specs = parse_schema(name, data.decode())
+    except (MsgDefError, UnicodeDecodeError) as exc:
+        return f"schema {name!r} cannot be parsed ({exc})" if _full(name) in DEFINITIONS else None
+    for sub, spec in specs.items():
+        if sub in DEFINITIONS and spec != _KNOWN[sub]:
+            return (f"the schema text of {name} defines {sub} as ({_fields(spec)}), not as the "
+                    f"standard ({_fields(_KNOWN[sub])})")
+    return None
+
+
+def hash_problem(channel: Channel, schema: Schema) -> str | None:
+    """Why the channel's ``topic_type_hash`` is not the RIHS01 hash of its (parseable) schema,
+    or None (also when the channel carries no hash)."""
+    claimed = channel.metadata.get("topic_type_hash", "")
+    if not claimed.startswith("RIHS01_"):
+        return None
+    try:
+        actual = type_hash(schema.name, parse_schema(schema.name, schema.data.decode()))
+    except (MsgDefError, UnicodeDecodeError, KeyError):
+        return None
+    if actual == claimed:
+        return None
+    return (f"topic_type_hash {claimed[:20]}... is not the hash of the schema text of "
+            f"{schema.name} (renamed or altered type)")
 
 
 def _sampled(topic: str) -> bool:

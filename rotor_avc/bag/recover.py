@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import struct
+import zlib
 from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
@@ -28,7 +29,9 @@ from mcap.records import Channel, Metadata, Schema, Statistics
 
 from . import records as R
 from .errors import BagError
+from .integrity import hash_problem, standard_text_problem
 from .mcap_writer import MAGIC, McapSink
+from .msgdefs import full_text
 from .metadata import COUNTS_RECORD, decode_counts, encode_counts, parse_qos_yaml, rosbag2_record
 from .writer import LIBRARY
 
@@ -98,7 +101,7 @@ class _Recovery:
         if self.src.read(len(MAGIC)) != MAGIC:
             raise BagError(self.source, "not an MCAP file (wrong magic bytes)",
                            fix="nothing to recover")
-        pos = len(MAGIC)
+        pos, crc = len(MAGIC), zlib.crc32(MAGIC)
         while pos < self.size:
             try:
                 rec = next(R.scan(self.src, self.size, pos))
@@ -114,14 +117,27 @@ class _Recovery:
                 pos = found
                 continue
             if rec.opcode in (R.OP_DATA_END, R.OP_FOOTER):
+                self._data_end(rec, crc)
                 break                       # a finished data section: the summary is rebuilt
             self._record(rec)
+            crc = zlib.crc32(rec.body, zlib.crc32(struct.pack("<BQ", rec.opcode, len(rec.body)),
+                                                  crc))
             pos = rec.end
         if self.sink is None:
             raise BagError(self.source, "the file ends inside its MCAP header",
                            fix="nothing to recover")
         self._finish()
         return self.result
+
+    def _data_end(self, rec, crc: int) -> None:
+        """A data-section CRC that fails while every kept chunk passed its own CRC: a record
+        outside the chunks (schema, channel, metadata) may be altered -- say so."""
+        (claimed,) = struct.unpack_from("<I", rec.body) if len(rec.body) >= 4 else (0,)
+        if rec.opcode == R.OP_DATA_END and claimed and claimed != crc \
+                and not self.result.lost_chunks:
+            self.result.notes.append("the source's data-section CRC does not match although "
+                                     "every chunk is intact: a schema, channel or metadata "
+                                     "record may be altered; check the configuration")
 
     # -- records ---------------------------------------------------------------------------
     def _record(self, rec) -> None:
@@ -156,13 +172,25 @@ class _Recovery:
         return self.sink
 
     def _schema(self, schema: Schema) -> None:
-        if schema.id not in self.schemas:
-            self.schemas[schema.id] = schema
-            self.schema_ids[schema.id] = self._sink().add_schema(schema.name, schema.encoding,
-                                                                 schema.data)
+        """Copy a schema; a standard type's damaged text is replaced by its definition."""
+        if schema.id in self.schemas:
+            return
+        problem = standard_text_problem(schema.name, schema.data)
+        if problem:
+            self.result.notes.append(f"schema {schema.id}: {problem}; the standard definition "
+                                     "was written instead")
+            schema = Schema(id=schema.id, name=schema.name, encoding=schema.encoding,
+                            data=full_text(schema.name).encode())
+        self.schemas[schema.id] = schema
+        self.schema_ids[schema.id] = self._sink().add_schema(schema.name, schema.encoding,
+                                                             schema.data)
 
     def _channel(self, channel: Channel) -> None:
         if channel.id not in self.channels:
+            schema = self.schemas.get(channel.schema_id)
+            problem = schema and hash_problem(channel, schema)
+            if problem:
+                self.result.notes.append(f"topic {channel.topic}: {problem}; copied as it is")
             self.channels[channel.id] = channel
             self.channel_ids[channel.id] = self._sink().add_channel(
                 channel.topic, channel.message_encoding,
