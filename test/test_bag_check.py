@@ -142,6 +142,7 @@ def rosbags_directory(path: Path, n: int = 400) -> Path:
 def test_an_independent_writers_directory_passes_and_a_wrong_metadata_yaml_does_not(tmp_path):
     bag = rosbags_directory(tmp_path / "rec")
     assert problems(bag) == {}
+    assert main(["bag", "info", str(bag)]) == 0                 # one block per file
     info = yaml.safe_load((bag / "metadata.yaml").read_text())
     body = info["rosbag2_bagfile_information"]
     body["topics_with_message_count"][0]["message_count"] += 1

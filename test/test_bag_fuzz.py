@@ -26,7 +26,7 @@ import zlib
 import numpy as np
 import pytest
 
-from rotor_avc.bag import BagReader, recover_bag, topics as T, write_bag
+from rotor_avc.bag import BagReader, BagWriter, recover_bag, topics as T, write_bag
 from rotor_avc.bag import records as R
 from rotor_avc.bag.errors import CorruptBagError
 from rotor_avc.bag.integrity import scan_bag
@@ -323,3 +323,31 @@ def test_a_consistent_copy_passes_and_dropped_samples_are_incomplete(bag, tmp_pa
     with pytest.raises(IncompleteRecordingError, match="plant/observables: 150 sample"):
         read_all(dropped)
     assert IncompleteRecordingError.exit_status == 3
+
+
+@pytest.mark.parametrize("compression", ["", "lz4"])
+def test_odd_but_valid_bags_read_correctly(bag, tmp_path, compression):
+    """Uncompressed and lz4 chunks, one message per chunk: the same numbers."""
+    path, original = bag
+    with BagReader(path) as r:
+        streams_bag = tmp_path / f"odd_{compression or 'none'}.mcap"
+        with BagWriter(streams_bag, CONFIG, compression=compression, chunk_size=1024) as w:
+            for name, info in r.topics.items():
+                w.add_topic(name, info.msg_type, info.qos)
+            for m in r.raw_messages():
+                w.write_raw(m.topic, m.data, m.time_ns)
+    assert same(read_all(streams_bag), original)
+
+
+def test_empty_truncated_and_headless_files_are_clear_errors(bag, tmp_path):
+    path, original = bag
+    raw = path.read_bytes()
+    rng = np.random.default_rng(7)
+    cuts = [0, len(MAGIC), len(MAGIC) + 5] + sorted(rng.integers(30, len(raw) - 1, 10).tolist())
+    for cut in cuts:
+        case = tmp_path / f"cut_{cut}.mcap"
+        case.write_bytes(raw[:cut])
+        assert outcome(case, original) == "error", cut
+        result = recovery_outcome(case, message_set(path))
+        assert result in ("refused", "recovered"), (cut, result)
+    print(f"\n{len(cuts)} truncated files: clear errors, recovered as exact subsets or refused")
