@@ -35,11 +35,11 @@ from .integrity import verify
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
+from .records import open_chunk
 from .topics import labels_of
 
 _RECOVER_FIX = ("finish it with rotor_avc.bag.recover.recover_bag(path) (or `mcap recover`); "
                 "at most the last chunk is lost")
-_CHUNK_FIXED = struct.Struct("<QQQI")
 #: what a damaged record raises inside mcap, zstandard, lz4 (RuntimeError) and struct
 DAMAGE_ERRORS = (McapError, zstandard.ZstdError, RuntimeError, ValueError, struct.error,
                  zlib.error, IndexError, EOFError)
@@ -335,25 +335,11 @@ class BagReader:
 
     def _chunk_records(self, ci) -> np.ndarray:
         self._file.seek(ci.chunk_start_offset + 9)
-        raw = self._file.read(ci.chunk_length - 9)
         try:
-            _, _, usize, crc = _CHUNK_FIXED.unpack_from(raw, 0)
-            (clen,) = struct.unpack_from("<I", raw, 28)
-            compression = raw[32:32 + clen].decode()
-            (dlen,) = struct.unpack_from("<Q", raw, 32 + clen)
-            data = raw[40 + clen:40 + clen + dlen]
-            if compression == "zstd":
-                data = zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
-            elif compression == "lz4":
-                import lz4.frame
-                data = lz4.frame.decompress(data)
-            elif compression:
-                raise McapError(f"unknown chunk compression {compression!r}")
-        except DAMAGE_ERRORS as exc:
+            chunk = open_chunk(self._file.read(ci.chunk_length - 9))
+        except ValueError as exc:
             raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
-        if len(data) != usize or (crc and zlib.crc32(data) != crc):
-            raise BagError(self.path, "damaged chunk (size or CRC mismatch)", fix=_RECOVER_FIX)
-        return np.frombuffer(data, np.uint8)
+        return np.frombuffer(chunk.data, np.uint8)
 
     def _series_by_message(self, topic: str, msg_type: str) -> TopicSeries:
         times, flat = [], []
