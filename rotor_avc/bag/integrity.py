@@ -82,6 +82,7 @@ class TopicData:
     duplicates: int = 0        # same log time, same bytes as a message before it
     conflicts: int = 0         # same log time, other bytes (sampled topics)
     backwards: int = 0         # log time earlier than the topic's message before it
+    first_repeat_ns: dict[str, int] = field(default_factory=dict)   # kind -> first log time
     last: tuple[int, bytes] | None = None
 
     @property
@@ -418,7 +419,7 @@ class _Pass:
             t.start_ns = lo if t.start_ns is None else min(t.start_ns, lo)
             t.end_ns = hi if t.end_ns is None else max(t.end_ns, hi)
             self._decode(t, msgs, mask, data, buf, where)
-            self._repeats(t, msgs, mask, data, where)
+            self._repeats(t, msgs, mask, data)
 
     def _decode(self, t: TopicData, msgs, mask, data, buf, where: str) -> None:
         codec = self.codecs.get(t.channel_id)
@@ -441,22 +442,25 @@ class _Pass:
             self.report.add("decode", f"topic {t.topic}, {where}", "a message does not decode "
                             f"as {codec.type_name} ({exc})")
 
-    def _repeats(self, t: TopicData, msgs, mask, data, where: str) -> None:
+    def _repeats(self, t: TopicData, msgs, mask, data) -> None:
         times = msgs.log_time[mask]
         prev = np.concatenate([[t.last[0]], times[:-1]]) if t.last else times[:-1]
         cur = times if t.last else times[1:]
         backwards = np.flatnonzero(cur < prev)
         if len(backwards):
             t.backwards += len(backwards)
+            t.first_repeat_ns.setdefault("backwards", int(cur[backwards[0]]))
         same = np.flatnonzero(cur == prev)
         for k in same:
             now = mask[k + (0 if t.last else 1)]
             before = t.last[1] if (t.last and k == 0) else msgs.payload(
                 data, mask[k - (1 if t.last else 0)])
-            if msgs.payload(data, now) == before:
+            kind = "duplicate" if msgs.payload(data, now) == before else "conflict"
+            if kind == "duplicate":
                 t.duplicates += 1
             else:
                 t.conflicts += 1
+            t.first_repeat_ns.setdefault(kind, int(msgs.log_time[now]))
         t.last = (int(times[-1]), msgs.payload(data, mask[-1]))
 
     # -- the end of the data and the summary -----------------------------------------------
@@ -615,16 +619,18 @@ class _Pass:
                 if expected is not None and expected != t.msg_type:
                     rep.add("schema", f"topic {t.topic}", f"declared as {t.msg_type!r}; the "
                             f"package's topic carries {expected}")
+            first = {k: f"topic {t.topic}, first at t = {v * 1e-9:.6f} s"
+                     for k, v in t.first_repeat_ns.items()}
             if t.conflicts and _sampled(t.topic):
-                rep.add("duplicates", f"topic {t.topic}", f"{t.conflicts} sample time(s) carry "
+                rep.add("duplicates", first["conflict"], f"{t.conflicts} sample time(s) carry "
                         "two different messages")
             allowed = int(RESENDS_ALLOWED * t.count) if _sampled(t.topic) else 0
             if t.duplicates > allowed:
-                rep.add("duplicates", f"topic {t.topic}", f"{t.duplicates} of {t.count} "
+                rep.add("duplicates", first["duplicate"], f"{t.duplicates} of {t.count} "
                         "messages repeat the message before them (same log time, same bytes)")
             if t.backwards and _sampled(t.topic):
-                rep.add("order", f"topic {t.topic}", f"log times go backwards {t.backwards} "
-                        "time(s) on a sampled topic")
+                rep.add("order", first.get("backwards", f"topic {t.topic}"), f"log times go "
+                        f"backwards {t.backwards} time(s) on a sampled topic")
 
 
 def check_rosbag2_info(rep: IntegrityReport, info, data: dict[str, TopicData],
