@@ -7,8 +7,9 @@ against the data); profile ``ros2``; one message encoding, ``cdr``; complete ``r
 schemas (every dependency's text present); ``offered_qos_profiles`` as rosbag2 writes them
 (:func:`qos_problems`); statistics, summary and chunk indexes and message indexes present (a
 file without them is read by scanning, and Foxglove cannot seek in it); log times in order on
-every sampled topic (a topic with several publishers, like ``/diagnostics``, is listed); the ``metadata.yaml`` information (the ``rosbag2`` record of a single file, or a
-directory's ``metadata.yaml``) consistent with the data: file list, per-file and per-topic
+every sampled topic (a topic with several publishers, like ``/diagnostics``, is listed); the
+``metadata.yaml`` information (the ``rosbag2`` record of a single file, or a directory's
+``metadata.yaml``, :mod:`.rosbag2_info`) consistent with the data: file list, per-file and per-topic
 counts, start and duration, types, QoS strings; and, for the package's own bags, every sample
 present (:mod:`.sequence`).
 """
@@ -20,9 +21,10 @@ from pathlib import Path
 import yaml
 
 from .errors import BagError
-from .integrity import IntegrityReport, TopicData, check_rosbag2_info, scan_bag
+from .integrity import IntegrityReport, TopicData, scan_bag
 from .metadata import CONFIG_RECORD, DEFAULT_QOS, QOS_CHOICES, load_yaml
 from .reader import BagReader
+from .rosbag2_info import check_rosbag2_info
 from .sequence import check_sequence
 from .topics import SAMPLED
 

@@ -18,7 +18,7 @@ the **data** holds with
 * the schemas: every message decodes with the ``ros2msg`` text its channel names; for a type
   whose standard definition the package knows (:mod:`.msgdefs`) the text defines exactly that
   type; the channel's ``topic_type_hash`` (RIHS01) is the hash of that text; a topic of the
-  package (:mod:`.topics`) in a bag of the package carries its own type;
+  package (:mod:`.topics`) in a bag of the package carries its own type (:mod:`.schema_check`);
 * duplicates, per topic: the same log time and the same bytes twice, and two different messages
   for one sample (same log time) on a sampled topic (:data:`.topics.SAMPLED`). The lockstep
   plant resends an unanswered sample, so up to :data:`RESENDS_ALLOWED` of a sampled topic's
@@ -46,16 +46,16 @@ from . import records as R
 from .cdr import CdrCodec, CdrError, Layout
 from .errors import BagError, CorruptBagError
 from .mcap_writer import MAGIC, MESSAGE_HEADER
-from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_counts, load_yaml, parse_qos_yaml
-from .msgdefs import (DEFINITIONS, MsgDefError, full_name, known_specs, parse_schema,
-                      type_hash)
+from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_counts, load_yaml
+from .msgdefs import MsgDefError, parse_schema
+from .rosbag2_info import check_rosbag2_info
+from .schema_check import hash_problem, standard_text_problem
 from .topics import SAMPLED, message_type
 
 #: share of a sampled topic's messages that may repeat a sample (lockstep resends)
 RESENDS_ALLOWED = 0.01
 #: problems kept in a report (the total is counted)
 PROBLEMS_KEPT = 25
-_KNOWN = known_specs()
 _ENTRY = np.dtype([("time", "<u8"), ("offset", "<u8")])     # a message index entry
 
 
@@ -633,98 +633,5 @@ class _Pass:
                         f"backwards {t.backwards} time(s) on a sampled topic")
 
 
-def check_rosbag2_info(rep: IntegrityReport, info, data: dict[str, TopicData],
-                       channels: dict[str, Channel], where: str, file_name: str | None = None):
-    """Compare a ``metadata.yaml`` mapping (the ``rosbag2`` record or a directory's file) with
-    the topics the data holds; problems go to ``rep``."""
-    if isinstance(info, dict) and "rosbag2_bagfile_information" in info:
-        info = info["rosbag2_bagfile_information"]
-    if not isinstance(info, dict):
-        rep.add("rosbag2", where, "not a rosbag2 bag-file information mapping")
-        return
-    counted = {}
-    for i, entry in enumerate(info.get("topics_with_message_count") or []):
-        try:
-            meta = entry["topic_metadata"]
-            name, count = meta["name"], int(entry["message_count"])
-        except (KeyError, TypeError, ValueError):
-            rep.add("rosbag2", where, f"topics_with_message_count[{i}] lacks name or count")
-            continue
-        counted[name] = count
-        t = data.get(name)
-        have = t.count if t else 0
-        if have != count:
-            rep.add("rosbag2", f"{where}, topic {name}",
-                    f"message_count is {count}, the data holds {have}")
-        if t and meta.get("type") != t.msg_type:
-            rep.add("rosbag2", f"{where}, topic {name}",
-                    f"type is {meta.get('type')!r}, the schema is {t.msg_type!r}")
-        channel = channels.get(name)
-        if channel is not None and "offered_qos_profiles" in channel.metadata:
-            listed = meta.get("offered_qos_profiles")
-            listed = parse_qos_yaml(listed) if isinstance(listed, str) else listed
-            if listed != parse_qos_yaml(channel.metadata["offered_qos_profiles"]):
-                rep.add("rosbag2", f"{where}, topic {name}",
-                        "offered_qos_profiles differ from the channel's")
-    for name, t in data.items():
-        if t.count and name not in counted:
-            rep.add("rosbag2", f"{where}, topic {name}", f"{t.count} message(s) not listed")
-    total = sum(t.count for t in data.values())
-    if info.get("message_count") != total:
-        rep.add("rosbag2", where, f"message_count is {info.get('message_count')}, "
-                f"the data holds {total}")
-    starts = [t.start_ns for t in data.values() if t.count]
-    ends = [t.end_ns for t in data.values() if t.count]
-    if starts:
-        start, duration = min(starts), max(ends) - min(starts)
-        got_start = (info.get("starting_time") or {}).get("nanoseconds_since_epoch")
-        got_duration = (info.get("duration") or {}).get("nanoseconds")
-        if got_start != start or got_duration != duration:
-            rep.add("rosbag2", where, f"starting_time {got_start} ns / duration {got_duration} "
-                    f"ns, the data spans {start} ns + {duration} ns")
-
-
-def standard_text_problem(name: str, data: bytes) -> str | None:
-    """Why the ``ros2msg`` text ``data`` of schema ``name`` is not the definition of the
-    standard types it names (:mod:`.msgdefs`), or None (also for a foreign type, which is
-    fine when its messages decode)."""
-    try:
-        specs = parse_schema(name, data.decode())
-    except (MsgDefError, UnicodeDecodeError) as exc:
-        return f"schema {name!r} cannot be parsed ({exc})" if _full(name) in DEFINITIONS else None
-    for sub, spec in specs.items():
-        if sub in DEFINITIONS and spec != _KNOWN[sub]:
-            return (f"the schema text of {name} defines {sub} as ({_fields(spec)}), not as the "
-                    f"standard ({_fields(_KNOWN[sub])})")
-    return None
-
-
-def hash_problem(channel: Channel, schema: Schema) -> str | None:
-    """Why the channel's ``topic_type_hash`` is not the RIHS01 hash of its (parseable) schema,
-    or None (also when the channel carries no hash)."""
-    claimed = channel.metadata.get("topic_type_hash", "")
-    if not claimed.startswith("RIHS01_"):
-        return None
-    try:
-        actual = type_hash(schema.name, parse_schema(schema.name, schema.data.decode()))
-    except (MsgDefError, UnicodeDecodeError, KeyError):
-        return None
-    if actual == claimed:
-        return None
-    return (f"topic_type_hash {claimed[:20]}... is not the hash of the schema text of "
-            f"{schema.name} (renamed or altered type)")
-
-
 def _sampled(topic: str) -> bool:
     return bool(SAMPLED.match(topic))
-
-
-def _full(name: str) -> str:
-    try:
-        return full_name(name)
-    except MsgDefError:
-        return name
-
-
-def _fields(spec) -> str:
-    return ", ".join(f"{f.type} {f.name}" for f in spec.fields)

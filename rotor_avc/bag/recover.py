@@ -29,7 +29,7 @@ from mcap.records import Channel, Metadata, Schema, Statistics
 
 from . import records as R
 from .errors import BagError
-from .integrity import hash_problem, standard_text_problem
+from .schema_check import hash_problem, standard_text_problem
 from .mcap_writer import MAGIC, McapSink
 from .msgdefs import full_text
 from .metadata import COUNTS_RECORD, decode_counts, encode_counts, parse_qos_yaml, rosbag2_record
