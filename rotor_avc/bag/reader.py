@@ -38,8 +38,8 @@ from .msgdefs import MsgDefError, parse_schema
 from .records import open_chunk
 from .topics import labels_of
 
-_RECOVER_FIX = ("finish it with rotor_avc.bag.recover.recover_bag(path) (or `mcap recover`); "
-                "at most the last chunk is lost")
+_RECOVER_FIX = ("finish it with `rotor-avc bag recover BAG` (recover_bag in Python, or "
+                "`mcap recover`): every intact chunk is kept")
 #: what a damaged record raises inside mcap, zstandard, lz4 (RuntimeError) and struct
 DAMAGE_ERRORS = (McapError, zstandard.ZstdError, RuntimeError, ValueError, struct.error,
                  zlib.error, IndexError, EOFError)
@@ -123,7 +123,7 @@ class BagReader:
         if self._summary is None or self._summary.statistics is None:
             self.close()
             raise BagError(self.path, "the file has no summary/statistics section",
-                           fix="rebuild it with rotor_avc.bag.recover.recover_bag(path)")
+                           fix="rebuild it with `rotor-avc bag recover BAG`")
         self._codecs: dict[int, CdrCodec | BagError] = {}
         self.check(require_config=require_config, require_messages=require_messages)
 
