@@ -23,6 +23,9 @@ from .mcap_writer import MAGIC, MESSAGE_HEADER
 
 #: a chunk that claims more uncompressed bytes than this is refused (writers use ~1 MiB)
 MAX_CHUNK_BYTES = 256 << 20
+#: a record longer than this is refused before it is read (a chunk's data is at most about
+#: its uncompressed size)
+MAX_RECORD_BYTES = MAX_CHUNK_BYTES + (1 << 20)
 _RECORD_HEAD = struct.Struct("<BQ")
 _CHUNK_FIXED = struct.Struct("<QQQI")
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK = 1, 2, 3, 4, 5, 6
@@ -56,8 +59,8 @@ class Record:
 
 def scan(f: BinaryIO, size: int, start: int = len(MAGIC)) -> Iterator[Record]:
     """Every record from ``start`` on, in file order; raises :class:`RecordError` at the first
-    record whose opcode is unknown or whose length runs past the end of the file. Stops after
-    the Footer."""
+    record whose opcode is unknown or whose length runs past the end of the file or above
+    :data:`MAX_RECORD_BYTES`. Stops after the Footer."""
     pos = start
     f.seek(pos)
     while pos < size:
@@ -69,6 +72,8 @@ def scan(f: BinaryIO, size: int, start: int = len(MAGIC)) -> Iterator[Record]:
             raise RecordError(pos, f"unknown opcode 0x{opcode:02x}")
         if pos + 9 + length > size:
             raise RecordError(pos, f"length {length} runs past the end of the file")
+        if length > MAX_RECORD_BYTES:
+            raise RecordError(pos, f"length {length} is above the limit of {MAX_RECORD_BYTES}")
         body = f.read(length)
         yield Record(opcode, pos, body)
         pos += 9 + length

@@ -37,8 +37,6 @@ from .writer import LIBRARY
 
 #: bytes read at a time while searching for the next intact chunk
 _SEARCH_BLOCK = 1 << 20
-#: the largest record kept (a chunk's compressed data is at most about its uncompressed size)
-_MAX_RECORD = R.MAX_CHUNK_BYTES + (1 << 20)
 _SKIPPED = (R.OP_MESSAGE_INDEX, R.OP_CHUNK_INDEX, R.OP_STATISTICS, R.OP_METADATA_INDEX,
             R.OP_SUMMARY_OFFSET, R.OP_ATTACHMENT)
 
@@ -105,8 +103,6 @@ class _Recovery:
         while pos < self.size:
             try:
                 rec = next(R.scan(self.src, self.size, pos))
-                if len(rec.body) > _MAX_RECORD:
-                    raise R.RecordError(pos, f"a record of {len(rec.body)} bytes")
             except StopIteration:
                 break
             except R.RecordError as exc:
@@ -323,7 +319,8 @@ def _looks_like_chunk(block: bytes, at: int, remaining: int) -> bool:
         return False
     length, start, end, usize = struct.unpack_from("<QQQQ", block, at + 1)
     (clen,) = struct.unpack_from("<I", block, at + 9 + 28)
-    if length > remaining - 9 or end < start or usize > R.MAX_CHUNK_BYTES or clen > 8:
+    if (length > min(remaining - 9, R.MAX_RECORD_BYTES) or end < start
+            or usize > R.MAX_CHUNK_BYTES or clen > 8):
         return False
     if at + 9 + 32 + clen + 8 > len(block):
         return False
