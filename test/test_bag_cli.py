@@ -133,3 +133,13 @@ def test_an_oversized_chunk_costs_that_chunk_only(tmp_path, monkeypatch):
     assert "limit 100000" in result.lost_chunks[0][1]
     with pytest.raises(CorruptBagError, match="limit 100000"):
         BagReader(path, integrity=True)
+
+
+def test_a_record_above_the_length_limit_is_refused_unread(tmp_path, monkeypatch):
+    source = bag_of(tmp_path / "run.mcap", 3000)
+    monkeypatch.setattr(R, "MAX_RECORD_BYTES", 300)             # every chunk is "too long"
+    report = scan_bag(source)
+    assert not report.ok and "above the limit of 300" in report.verdict()
+    result = recover_bag(source)
+    assert result.messages == 0 and result.lost_chunks
+    assert all("above the limit" in why for _, why in result.lost_chunks)
