@@ -19,7 +19,7 @@ from rotor_avc.bag.cdr import CdrCodec
 from rotor_avc.bag.check import check_bag
 from rotor_avc.bag.mcap_writer import McapSink
 from rotor_avc.bag.metadata import DEFAULT_QOS, qos_yaml
-from rotor_avc.bag.msgdefs import full_text, known_specs
+from rotor_avc.bag.msgdefs import full_text, known_specs, type_hash
 from rotor_avc.cli import main
 from rotor_avc.config import find_config
 
@@ -166,3 +166,25 @@ def test_info_lists_topics_counts_and_rates(simulated, capsys):
     with BagReader(simulated) as r:
         rate_hz = r.config["discretisation"]["sample_rate_hz"]
     assert float(rate.split()[-2]) == pytest.approx(rate_hz, rel=1e-3)
+
+
+def test_the_mcap_packages_own_writer_passes(tmp_path):
+    """Another layout of the same format: the `mcap` package's Writer (its own chunking,
+    empty summary-offset groups, no data-section CRC, no rosbag2 record)."""
+    writer = pytest.importorskip("mcap.writer")
+    codec = CdrCodec("geometry_msgs/msg/Vector3", known_specs())
+    path = tmp_path / "mcap_writer.mcap"
+    with open(path, "wb") as f:
+        w = writer.Writer(f)
+        w.start(profile="ros2", library="mcap-python")
+        sid = w.register_schema("geometry_msgs/msg/Vector3", "ros2msg",
+                                full_text("geometry_msgs/msg/Vector3").encode())
+        cid = w.register_channel("/v", "cdr", sid, {
+            "offered_qos_profiles": qos_yaml([DEFAULT_QOS]),
+            "topic_type_hash": type_hash("geometry_msgs/msg/Vector3")})
+        for k in range(20000):
+            w.add_message(cid, k * 1000, codec.encode({"x": float(k)}), k * 1000, k)
+        w.finish()
+    assert set(problems(path)) == {"metadata.yaml"}
+    with BagReader(path, integrity=True) as r:
+        assert r.integrity.message_count == 20000 and r.integrity.chunks >= 2
