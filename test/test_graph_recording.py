@@ -15,6 +15,7 @@ from ros_helpers import node_process, rclpy, stop  # noqa: F401
 from test_ros_graph import scenario_file
 
 from rotor_avc.bag import BagReader
+from rotor_avc.bag.check import check_bag
 from rotor_avc.bag.sequence import SAMPLED, check_sequence
 from rotor_avc.cli import main
 from rotor_avc.config import find_config
@@ -65,6 +66,8 @@ def assert_recorded_like_in_process(run, scenario: str, tmp_path: Path):
         assert graph[topic] == loop[topic], f"{topic} differs from the in-process loop's bag"
     with BagReader(run.bag) as r:
         assert check_sequence(r).ok
+    for bag in (run.bag, sim):                     # ros2 bag / Foxglove pitfalls, integrity
+        assert [str(line) for line in check_bag(bag) if not line.ok] == []
 
 
 @pytest.mark.parametrize("base, layout", [("scenario_demo_case2", "processes"),

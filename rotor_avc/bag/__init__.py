@@ -8,8 +8,14 @@
   :func:`write_bag`;
 * :mod:`.reader` -- :class:`BagReader`: topics, counts, time range, metadata, configuration,
   messages, numpy series;
-* :mod:`.recover` -- :func:`recover_bag` finishes a recording that was killed;
-* :mod:`.msgdefs`, :mod:`.cdr`, :mod:`.mcap_writer`, :mod:`.metadata` -- the format's parts.
+* :mod:`.integrity` -- one streaming pass checking the data against CRCs, indexes, statistics,
+  records and schemas (``BagReader(path, integrity=True)``; exit status 4);
+* :mod:`.recover` -- :func:`recover_bag`: a new bag of every intact chunk (a killed recording,
+  a damaged file);
+* :mod:`.check` -- the ``ros2 bag`` / Foxglove / PlotJuggler pitfalls of a file or a rosbag2
+  directory (``rotor-avc bag check``);
+* :mod:`.msgdefs`, :mod:`.cdr`, :mod:`.mcap_writer`, :mod:`.metadata`, :mod:`.records` -- the
+  format's parts.
 """
 from .errors import BagError
 from .reader import BagReader, TopicSeries

@@ -19,3 +19,21 @@ class BagError(RotorAvcError, ValueError):
         if fix:
             text += f" -- fix: {fix}"
         super().__init__(text)
+
+
+#: exit status of a command refusing a corrupted or inconsistent bag
+EXIT_CORRUPT = 4
+
+
+class CorruptBagError(BagError):
+    """The bag's data disagree with its CRCs, indexes, statistics, records or schemas
+    (:mod:`rotor_avc.bag.integrity`): one verdict listing every problem and where it is."""
+
+    exit_status = EXIT_CORRUPT
+
+    def __init__(self, path, problems: int, verdict: str):
+        self.verdict = verdict
+        super().__init__(path, f"corrupted or inconsistent bag, {problems} problem(s):\n  "
+                         + verdict.replace("\n", "\n  "),
+                         fix="nothing read from this file can be trusted; `rotor-avc bag "
+                             "recover BAG` keeps every intact chunk, or record the run again")

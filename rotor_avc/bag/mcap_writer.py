@@ -4,8 +4,9 @@ Follows the MCAP specification (https://mcap.dev/spec) the way libmcap (used by 
 file out: magic, Header, then the data section -- Schema and Channel records and the run's
 Metadata records written outside chunks as soon as they are known, messages in Chunk records
 (zstd or lz4, uncompressed when that is not smaller) each followed by its per-channel
-MessageIndex records -- then DataEnd, the summary (schemas, channels, statistics, chunk indexes,
-metadata indexes, summary offsets), Footer and magic. The non-message records are serialised with
+MessageIndex records -- then DataEnd (with the CRC of the whole data section, so any altered
+byte before it is found), the summary (schemas, channels, statistics, chunk indexes, metadata
+indexes, summary offsets), Footer and magic. The non-message records are serialised with
 the ``mcap`` package's record classes; messages, message indexes and chunks are packed here,
 one ``struct`` call per message when streaming and a few numpy operations per chunk in batches.
 
@@ -71,16 +72,22 @@ class McapSink:
         self.counts: dict[int, int] = {}
         self.start_ns: int | None = None
         self.end_ns: int | None = None
+        self._data_crc = 0
         self._reset_chunk()
-        self._file.write(MAGIC)
+        self._write(MAGIC)
         self._write_records(Header(profile=profile, library=library))
+
+    def _write(self, data: bytes) -> None:
+        """Write to the data section, keeping its CRC (stored in the DataEnd record)."""
+        self._data_crc = zlib.crc32(data, self._data_crc)
+        self._file.write(data)
 
     # -- records outside chunks ------------------------------------------------------------
     def _write_records(self, *records) -> None:
         builder = RecordBuilder()
         for record in records:
             record.write(builder)
-        self._file.write(builder.end())
+        self._write(builder.end())
 
     def add_schema(self, name: str, encoding: str, data: bytes) -> int:
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
@@ -104,7 +111,7 @@ class McapSink:
         builder = RecordBuilder()
         Metadata(name=name, metadata=dict(data)).write(builder)
         raw = builder.end()
-        self._file.write(raw)
+        self._write(raw)
         self._file.flush()
         self._metadata_indexes.append(MetadataIndex(offset=offset, length=len(raw), name=name))
 
@@ -153,9 +160,8 @@ class McapSink:
         head = _CHUNK_HEAD.pack(Opcode.CHUNK, 8 + 8 + 8 + 4 + 4 + len(comp) + 8 + len(data),
                                 start, end, len(records), zlib.crc32(records))
         chunk_offset = self._file.tell()
-        self._file.write(head + struct.pack("<I", len(comp)) + comp
-                         + struct.pack("<Q", len(data)))
-        self._file.write(data)
+        self._write(head + struct.pack("<I", len(comp)) + comp + struct.pack("<Q", len(data)))
+        self._write(data)
         index_start = self._file.tell()
         offsets, pieces = {}, []
         for ch in sorted(index):
@@ -165,7 +171,7 @@ class McapSink:
             offsets[ch] = index_start + sum(len(p) for p in pieces)
             pieces.append(struct.pack("<BQHI", Opcode.MESSAGE_INDEX, 2 + 4 + len(body), ch,
                                       len(body)) + body)
-        self._file.write(b"".join(pieces))
+        self._write(b"".join(pieces))
         self._file.flush()
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=start, message_end_time=end, chunk_start_offset=chunk_offset,
@@ -177,7 +183,7 @@ class McapSink:
     def finish(self) -> None:
         """Write the last chunk, DataEnd, the summary, the footer and the closing magic."""
         self.flush_chunk()
-        self._write_records(DataEnd(data_section_crc=0))
+        self._write_records(DataEnd(data_section_crc=self._data_crc))
         summary_start = self._file.tell()
         builder = RecordBuilder()
         offsets = []

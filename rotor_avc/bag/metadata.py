@@ -37,7 +37,8 @@ DEFAULT_QOS = {
     "deadline": dict(_INFINITE), "lifespan": dict(_INFINITE), "liveliness": "automatic",
     "liveliness_lease_duration": dict(_INFINITE), "avoid_ros_namespace_conventions": False,
 }
-_QOS_CHOICES = {
+#: the values rosbag2's QoS YAML decoder knows, per enumerated key
+QOS_CHOICES = {
     "history": ("keep_last", "keep_all", "system_default", "unknown"),
     "reliability": ("reliable", "best_effort", "system_default", "best_available", "unknown"),
     "durability": ("volatile", "transient_local", "system_default", "best_available", "unknown"),
@@ -54,7 +55,7 @@ def qos_profiles(profiles: list[Mapping] | None) -> list[dict]:
             raise BagError("(qos)", f"profile {i}: unknown keys {sorted(unknown)}",
                            fix="use " + ", ".join(DEFAULT_QOS))
         profile = {**DEFAULT_QOS, **given}
-        for key, choices in _QOS_CHOICES.items():
+        for key, choices in QOS_CHOICES.items():
             if profile[key] not in choices:
                 raise BagError("(qos)", f"profile {i}: {key} {profile[key]!r} is not one of "
                                + ", ".join(choices))

@@ -12,7 +12,9 @@ Every problem is a :class:`~rotor_avc.bag.errors.BagError` naming it: no such fi
 (0-byte) file, not MCAP, a truncated file (no footer: the recording was killed -- finish it
 with :func:`rotor_avc.bag.recover.recover_bag`), not the ``ros2`` profile, a topic whose schema
 cannot be decoded (unknown encoding, IDL, a missing dependency), no configuration metadata, a
-bag or topic without messages.
+bag or topic without messages. With ``integrity=True`` the file first goes through the
+streaming integrity pass (:mod:`.integrity`: CRCs, indexes, statistics, schemas, duplicates
+against the data), which raises :class:`~rotor_avc.bag.errors.CorruptBagError` (exit status 4).
 """
 from __future__ import annotations
 
@@ -29,14 +31,15 @@ from mcap.reader import SeekingReader
 
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
+from .integrity import verify
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
+from .records import open_chunk
 from .topics import labels_of
 
-_RECOVER_FIX = ("finish it with rotor_avc.bag.recover.recover_bag(path) (or `mcap recover`); "
-                "at most the last chunk is lost")
-_CHUNK_FIXED = struct.Struct("<QQQI")
+_RECOVER_FIX = ("finish it with `rotor-avc bag recover BAG` (recover_bag in Python, or "
+                "`mcap recover`): every intact chunk is kept")
 #: what a damaged record raises inside mcap, zstandard, lz4 (RuntimeError) and struct
 DAMAGE_ERRORS = (McapError, zstandard.ZstdError, RuntimeError, ValueError, struct.error,
                  zlib.error, IndexError, EOFError)
@@ -95,9 +98,17 @@ class TopicSeries:
 class BagReader:
     """Open a bag for reading (a context manager; also usable without ``with``)."""
 
-    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False):
+    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False,
+                 integrity: bool = False):
         self.path = Path(path)
         self._file = self._open_checked()
+        self.integrity = None
+        if integrity:
+            try:
+                self.integrity = verify(self.path)
+            except BagError:
+                self.close()
+                raise
         try:
             self._reader = SeekingReader(self._file, validate_crcs=True)
             header = self._reader.get_header()
@@ -112,7 +123,7 @@ class BagReader:
         if self._summary is None or self._summary.statistics is None:
             self.close()
             raise BagError(self.path, "the file has no summary/statistics section",
-                           fix="rebuild it with rotor_avc.bag.recover.recover_bag(path)")
+                           fix="rebuild it with `rotor-avc bag recover BAG`")
         self._codecs: dict[int, CdrCodec | BagError] = {}
         self.check(require_config=require_config, require_messages=require_messages)
 
@@ -324,25 +335,11 @@ class BagReader:
 
     def _chunk_records(self, ci) -> np.ndarray:
         self._file.seek(ci.chunk_start_offset + 9)
-        raw = self._file.read(ci.chunk_length - 9)
         try:
-            _, _, usize, crc = _CHUNK_FIXED.unpack_from(raw, 0)
-            (clen,) = struct.unpack_from("<I", raw, 28)
-            compression = raw[32:32 + clen].decode()
-            (dlen,) = struct.unpack_from("<Q", raw, 32 + clen)
-            data = raw[40 + clen:40 + clen + dlen]
-            if compression == "zstd":
-                data = zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
-            elif compression == "lz4":
-                import lz4.frame
-                data = lz4.frame.decompress(data)
-            elif compression:
-                raise McapError(f"unknown chunk compression {compression!r}")
-        except DAMAGE_ERRORS as exc:
+            chunk = open_chunk(self._file.read(ci.chunk_length - 9))
+        except ValueError as exc:
             raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
-        if len(data) != usize or (crc and zlib.crc32(data) != crc):
-            raise BagError(self.path, "damaged chunk (size or CRC mismatch)", fix=_RECOVER_FIX)
-        return np.frombuffer(data, np.uint8)
+        return np.frombuffer(chunk.data, np.uint8)
 
     def _series_by_message(self, topic: str, msg_type: str) -> TopicSeries:
         times, flat = [], []

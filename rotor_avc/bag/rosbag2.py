@@ -24,13 +24,16 @@ from .reader import BagMessage, BagReader, TopicInfo, TopicSeries
 METADATA_FILE = "metadata.yaml"
 
 
-def open_bag(path, *, require_config: bool = False, require_messages: bool = False):
-    """A reader for a ``.mcap`` file or a rosbag2 directory (see the module docstring)."""
+def open_bag(path, *, require_config: bool = False, require_messages: bool = False,
+             integrity: bool = False):
+    """A reader for a ``.mcap`` file or a rosbag2 directory (see the module docstring);
+    ``integrity``: every file first passes :func:`rotor_avc.bag.integrity.verify`."""
     path = Path(path)
     if path.is_dir():
         return DirectoryBag(path, require_config=require_config,
-                            require_messages=require_messages)
-    return BagReader(path, require_config=require_config, require_messages=require_messages)
+                            require_messages=require_messages, integrity=integrity)
+    return BagReader(path, require_config=require_config, require_messages=require_messages,
+                     integrity=integrity)
 
 
 def bag_files(directory: Path) -> list[Path]:
@@ -69,12 +72,13 @@ def bag_files(directory: Path) -> list[Path]:
 class DirectoryBag:
     """A rosbag2 directory read as one bag over its split files (BagReader's API)."""
 
-    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False):
+    def __init__(self, path, *, require_config: bool = False, require_messages: bool = False,
+                 integrity: bool = False):
         self.path = Path(path)
         self._readers: list[BagReader] = []
         try:
             for f in bag_files(self.path):
-                self._readers.append(BagReader(f))
+                self._readers.append(BagReader(f, integrity=integrity))
             self.check(require_config=require_config, require_messages=require_messages)
         except BagError:
             self.close()

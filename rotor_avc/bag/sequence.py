@@ -17,18 +17,14 @@ reported as a note.
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import RotorAvcError
 from .reader import BagReader
+from .topics import SAMPLED
 
-#: sampled topics, relative to the namespace (rotor_avc.bag.topics)
-SAMPLED = re.compile(r"^(/[^/]+/)?(foot/[^/]+/(acceleration|velocity|displacement|"
-                     r"actuator_force)|rotor/joint_state|plant/observables|plant/test_signal|"
-                     r"harmonic/forces|balancer/command)$|^/clock$")
 #: at most this many missing ranges are listed per topic
 RANGES_SHOWN = 5
 #: exit status of a command refusing a bag with missing samples (0 pass, 1 fail, 2 unreadable)

@@ -39,6 +39,7 @@ time series; the builders below make them from arrays, and
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -63,6 +64,10 @@ TOPIC_TYPES = {
     "/clock": "rosgraph_msgs/msg/Clock",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }
+#: the topics with one message per sample of the run (rotor_avc.bag.sequence)
+SAMPLED = re.compile(r"^(/[^/]+/)?(foot/[^/]+/(acceleration|velocity|displacement|"
+                     r"actuator_force)|rotor/joint_state|plant/observables|plant/test_signal|"
+                     r"harmonic/forces|balancer/command)$|^/clock$")
 
 
 #: PlotJuggler's ROS 2 parser reads arrays of at most its "maximum array size" (default 100)

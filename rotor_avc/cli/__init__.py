@@ -19,6 +19,7 @@ COMMANDS = [
     "api684",                                                # standard checks of a model
     "demo",                                                  # the main job
     "replay",                                                # bags into the ROS graph
+    "bag",                                                   # bag info, check, recover
     "runup",                                                 # views of a recorded run-up
 ]
 

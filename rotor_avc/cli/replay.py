@@ -77,7 +77,7 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    with open_bag(args.bag, require_messages=True) as reader:
+    with open_bag(args.bag, require_messages=True, integrity=True) as reader:
         if CONFIG_RECORD in reader.metadata:
             for note in require_complete(reader).notes:
                 print(f"note: {note}")

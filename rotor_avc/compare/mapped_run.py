@@ -117,7 +117,7 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     mapped = {name: (sig, f"channels.{name}") for name, sig in signals.items()}
     if rmap.test_force is not None:
         mapped[TEST_FORCE] = (rmap.test_force, "test_force")
-    with open_bag(bag_path, require_messages=True) as bag:
+    with open_bag(bag_path, require_messages=True, integrity=True) as bag:
         raw = {name: _read_field(bag, sig, where, source) for name, (sig, where) in mapped.items()}
         shaft_ns, shaft_angle = _read_shaft(bag, rmap.shaft, source)
     origin_ns = min(min(int(t.min()) for t, _ in raw.values()), int(shaft_ns.min()))

@@ -66,7 +66,7 @@ def _unique(series):
 def read_run(path) -> RecordedRun:
     """Read ``path``, a .mcap file or a rosbag2 directory (see the module docstring)."""
     path = Path(path)
-    with open_bag(path, require_config=True, require_messages=True) as bag:
+    with open_bag(path, require_config=True, require_messages=True, integrity=True) as bag:
         config = bag.config
         scenario = scenario_from_config(config["machine"], f"{path} (recorded configuration)")
         recorded = config.get("damping")
