@@ -42,7 +42,7 @@ from .errors import ModelError
 from .machine import Machine, load_machine, machine_from_config, model_supports, models_supporting
 from .settings import SimulationSettings, read_settings
 from .sim.broadband import BroadbandForce, broadband_from_config
-from .sim.loop import run_loop
+from .sim.loop import BLOCK_STEPS, run_blocks, run_loop
 from .sim.propagator import DampingRule
 from .sim.speed_profile import SpeedProfile, profile_from_config
 from .sim.stepper import PlantStepper
@@ -118,12 +118,26 @@ class Scenario:
                                     self.profile.max_speed_rad_s, self.damping.whirl_rad_s)
 
     def run(self, progress: bool | None = None, balancer=None, harmonic=None) -> TimeSeries:
+        """The whole run in memory (its size checked first, rotor_avc.sim.loop.run_loop)."""
+        stepper, controllers, n_steps, options = self._loop(balancer, harmonic)
+        return run_loop(stepper, controllers, n_steps, progress=progress, **options)
+
+    def run_blocks(self, progress: bool | None = None, stop=lambda: False,
+                   block_steps: int = BLOCK_STEPS):
+        """The run as consecutive time-series blocks (rotor_avc.sim.loop.run_blocks): memory
+        independent of the duration; ``stop()`` True after a block ends the run there."""
+        stepper, controllers, n_steps, options = self._loop()
+        return run_blocks(stepper, controllers, n_steps, progress=progress, stop=stop,
+                          block_steps=block_steps, **options)
+
+    def _loop(self, balancer=None, harmonic=None):
+        """``(stepper, controllers, n_steps, options of the loop)``."""
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
         harmonic = self.harmonic() if harmonic is None else harmonic
-        return run_loop(self.stepper(), self.controllers(), self.n_steps, balancer=balancer,
-                        feedforward=self.feedforward(), harmonic=harmonic,
-                        initial_state=self.initial_state, progress=progress, metadata=meta)
+        return (self.stepper(), self.controllers(), self.n_steps,
+                {"balancer": balancer, "feedforward": self.feedforward(), "harmonic": harmonic,
+                 "initial_state": self.initial_state, "metadata": meta})
 
 
 def relevant_mode_hz(machine: Machine) -> float:

@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from ..errors import RotorAvcError
+from ..resources import DEFAULT_RAM_FRACTION, ENV_VAR
+from .common import EXIT_INTERRUPTED, positive_float
 
 COMMANDS = [
     "poles", "campbell", "frf", "controller", "simulate", "compare",     # any machine
@@ -37,17 +40,26 @@ def build_parser() -> argparse.ArgumentParser:
                            epilog="example:\n  " + mod.EXAMPLE,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         mod.add_arguments(p)
+        p.add_argument("--max-memory-gb", type=positive_float, default=None,
+                       help="refuse runs and grids planned to need more memory (GiB; default: "
+                            f"{DEFAULT_RAM_FRACTION:g} of the machine's RAM, or ${ENV_VAR})")
         p.set_defaults(_run=mod.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.max_memory_gb is not None:
+        os.environ[ENV_VAR] = repr(args.max_memory_gb)
     try:
         return int(args._run(args) or 0)
     except RotorAvcError as exc:
         print(f"rotor-avc {args.command}: error: {exc}", file=sys.stderr)
         return getattr(exc, "exit_status", 2)
+    except KeyboardInterrupt:
+        print(f"rotor-avc {args.command}: interrupted (outputs are written under a temporary "
+              "name and renamed when complete)", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..compare.comparison import compare_bag
 from ..compare.report import ACCEPTANCE, write_report
+from .common import output_folder
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
@@ -20,7 +21,7 @@ EXAMPLE = "rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare
 def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="the recorded run: a .mcap bag with the run's "
                                           "configuration (rotor-avc simulate --out, recorder)")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=output_folder, default=None,
                    help="report folder (created; default: out/compare_<bag name>)")
 
 
