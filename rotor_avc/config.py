@@ -71,6 +71,8 @@ def _merge(base: dict, override: dict) -> dict:
     return out
 
 
+#: numbers in a config beyond this magnitude are refused (no SI quantity of a machine is near it)
+MAX_MAGNITUDE = 1.0e20
 #: refuse YAML files larger than this (bytes); ``ROTOR_AVC_MAX_YAML_MB`` overrides it
 MAX_YAML_BYTES = 10 * 2**20
 #: refuse a document whose aliases expand to more nodes than this ("billion laughs")
@@ -383,6 +385,9 @@ def check_number(value: Any, field: str, *, source: str = "", positive: bool = F
     if not math.isfinite(value):
         raise ConfigError(field, f"must be finite (got {value})", fix="give a finite number",
                           source=source)
+    if abs(value) > MAX_MAGNITUDE:
+        raise ConfigError(field, f"{value:g}{unit_txt} is beyond any physical value (|x| > "
+                          f"{MAX_MAGNITUDE:g})", fix="give the value in SI units", source=source)
     if positive and value <= 0.0:
         raise ConfigError(field, f"must be > 0 (got {value}{unit_txt})",
                           fix=f"give a positive value in SI units{unit_txt}", source=source)

@@ -13,7 +13,7 @@ import os
 import sys
 
 from ..errors import RotorAvcError
-from ..resources import DEFAULT_RAM_FRACTION, ENV_VAR
+from ..resources import DEFAULT_MAX_HOURS, DEFAULT_RAM_FRACTION, ENV_VAR, TIME_ENV_VAR
 from .common import EXIT_INTERRUPTED, positive_float
 
 COMMANDS = [
@@ -43,14 +43,18 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--max-memory-gb", type=positive_float, default=None,
                        help="refuse runs and grids planned to need more memory (GiB; default: "
                             f"{DEFAULT_RAM_FRACTION:g} of the machine's RAM, or ${ENV_VAR})")
+        p.add_argument("--max-hours", type=positive_float, default=None,
+                       help="refuse studies estimated to run longer (hours; default: "
+                            f"{DEFAULT_MAX_HOURS:g}, or ${TIME_ENV_VAR})")
         p.set_defaults(_run=mod.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.max_memory_gb is not None:
-        os.environ[ENV_VAR] = repr(args.max_memory_gb)
+    for name, value in ((ENV_VAR, args.max_memory_gb), (TIME_ENV_VAR, args.max_hours)):
+        if value is not None:
+            os.environ[name] = repr(value)
     try:
         return int(args._run(args) or 0)
     except RotorAvcError as exc:

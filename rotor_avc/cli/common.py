@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..resources import FLOAT_BYTES, ResourceError, check_memory
+
 #: exit status of a command stopped by Ctrl-C (128 + SIGINT, the shell's convention)
 EXIT_INTERRUPTED = 130
 
@@ -28,6 +30,10 @@ def speed_range_hz(text: str, allow_zero: bool = False) -> np.ndarray:
         raise argparse.ArgumentTypeError(
             f"{text!r}: need 0 {'<=' if allow_zero else '<'} START < STOP and N >= 2 "
             "(e.g. 1:250:2000)")
+    try:
+        check_memory(FLOAT_BYTES * n, f"a grid of {n} speeds", "use fewer speeds")
+    except ResourceError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
     return np.linspace(start, stop, n)
 
 
