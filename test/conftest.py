@@ -23,7 +23,7 @@ KINDS = {
     "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_errors", "balancing_cli",
              "blocks", "cli", "compare_errors", "compare_reference", "compare_test_force",
              "config_errors", "config_fuzz", "config_keys", "control_block", "control_cli", "import_layers",
-             "bag_sequence", "nodes_lockstep", "nodes_timing", "sim_profile", "sim_scenario", "sim_streaming",
+             "bag_sequence", "nodes_lockstep", "nodes_timing", "resources", "sim_profile", "sim_scenario", "sim_streaming",
              "sleeve_bearing_cli", "suite_kinds"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
               "balancing_runup_response", "balancing_switching", "foot_mount_model",
