@@ -128,7 +128,8 @@ class _LimitedLoader(yaml.SafeLoader):
 _FIXES = (("nested deeper", "flatten the structure (configs need a few levels)"),
           ("duplicate key", "keep one of the two entries"),
           ("undefined alias", "define the anchor (&name) before its alias (*name), or remove the alias"),
-          ("expand to more than", "remove the aliases (*name) that repeat large parts"),
+          ("aliases expanded", "remove the aliases (*name) that repeat large parts; a config "
+                               "needs far fewer values"),
           ("refers to itself", "an anchor (&name) must not contain its own alias (*name)"))
 
 
@@ -167,7 +168,8 @@ def _check_expansion(node, path: Path) -> None:
             total += size(child)
             if total > MAX_YAML_NODES:
                 raise yaml.composer.ComposerError(
-                    None, None, f"aliases expand to more than {MAX_YAML_NODES} values",
+                    None, None, f"the document, its aliases expanded, holds more than "
+                    f"{MAX_YAML_NODES} values",
                     child.start_mark)
         active.discard(key)
         sizes[key] = total
