@@ -97,6 +97,8 @@ MUTATIONS = {
     "missing": lambda v: None,
     "huge": lambda v: 1.0e308,
     "huge negative": lambda v: -1.0e308,
+    "large": lambda v: 1.0e19,
+    "times 1e9": lambda v: 1.0e9 * v if isinstance(v, (int, float)) else 1.0e9,
     "NaN": lambda v: math.nan,
     "NaN string": lambda v: "NaN",
     "inf string": lambda v: "inf",
