@@ -147,36 +147,41 @@ def _yaml_error(exc: yaml.YAMLError, path: Path) -> ConfigError:
 
 
 def _check_expansion(node, path: Path) -> None:
-    """Refuse alias graphs that expand to more than :data:`MAX_YAML_NODES` nodes, or cycles.
+    """Refuse alias graphs that expand to more than :data:`MAX_YAML_NODES` nodes or deeper than
+    :data:`MAX_YAML_DEPTH` levels, or that contain themselves.
 
-    Aliases share their anchor's node, so each node's expanded size is computed once."""
-    sizes: dict[int, int] = {}
+    Aliases share their anchor's node, so each node's expanded size and depth is computed once."""
+    seen: dict[int, tuple[int, int]] = {}
     active: set[int] = set()
 
-    def size(n) -> int:
+    def size_depth(n) -> tuple[int, int]:
         key = id(n)
-        if key in sizes:
-            return sizes[key]
+        if key in seen:
+            return seen[key]
         if key in active:
             raise yaml.composer.ComposerError(None, None, "an anchor refers to itself",
                                               n.start_mark)
         active.add(key)
         children = (n.value if isinstance(n, yaml.SequenceNode) else
                     [c for pair in n.value for c in pair] if isinstance(n, yaml.MappingNode) else [])
-        total = 1
+        total, depth = 1, 0
         for child in children:
-            total += size(child)
+            child_size, child_depth = size_depth(child)
+            total, depth = total + child_size, max(depth, child_depth)
             if total > MAX_YAML_NODES:
                 raise yaml.composer.ComposerError(
                     None, None, f"the document, its aliases expanded, holds more than "
-                    f"{MAX_YAML_NODES} values",
+                    f"{MAX_YAML_NODES} values", child.start_mark)
+            if depth >= MAX_YAML_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"nested deeper than {MAX_YAML_DEPTH} levels through aliases",
                     child.start_mark)
         active.discard(key)
-        sizes[key] = total
-        return total
+        seen[key] = total, depth + 1
+        return seen[key]
 
     try:
-        size(node)
+        size_depth(node)
     except yaml.YAMLError as exc:
         raise _yaml_error(exc, path) from None
 

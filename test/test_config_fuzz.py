@@ -53,6 +53,8 @@ MALFORMED = [
      "".join(" " * i + f"k{i}:\n" for i in range(200)).encode() + b" " * 200 + b"v: 1\n",
      MAX_YAML_DEPTH),
     ("alias bomb under description", _bomb().encode(), None),
+    ("deep through aliases", "".join(f"a{i}: &a{i} " + "[" * 40 + (f"*a{i - 1}" if i else "1")
+                                     + "]" * 40 + "\n" for i in range(5)).encode(), 2),
     ("recursive anchor", b"model: &m [1, *m]\n", 1),
     ("unclosed flow list", b"model: [foot_mount\nmachine: {}\n", None),
     ("top level a list", b"- a\n- b\n", None),

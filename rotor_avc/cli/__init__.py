@@ -3,7 +3,9 @@
 Each command module defines ``NAME``, ``HELP`` (one line), ``EXAMPLE`` and ``add_arguments(p)``
 and ``run(args) -> int``. Errors the user can fix (:class:`rotor_avc.errors.RotorAvcError`) are
 printed as one line and exit with status 2 (or the error's own ``exit_status``, e.g. 3 for a
-recording with missing samples); nothing else is caught.
+recording with missing samples); Ctrl-C ends a command with one line and exit status 130;
+nothing else is caught. Every command takes ``--max-memory-gb`` and ``--max-hours``, the limits
+of rotor_avc.resources.
 """
 from __future__ import annotations
 
@@ -61,8 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rotor-avc {args.command}: error: {exc}", file=sys.stderr)
         return getattr(exc, "exit_status", 2)
     except KeyboardInterrupt:
-        print(f"rotor-avc {args.command}: interrupted (outputs are written under a temporary "
-              "name and renamed when complete)", file=sys.stderr)
+        print(f"rotor-avc {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
 
 
