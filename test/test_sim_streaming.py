@@ -1,7 +1,7 @@
-"""Long simulations stream to their bag block by block: the streamed bag holds exactly the
-messages of the bag written from the whole run, memory does not grow with the duration, runs held
-in memory are size-checked first, Ctrl-C leaves a valid partial bag (or no file), and --out paths
-that cannot be written are refused up front."""
+"""Long simulations stream to their output block by block: the streamed bag holds exactly the
+messages of the bag written from the whole run and the streamed .npz its arrays, memory does not
+grow with the duration, runs held in memory are size-checked first, Ctrl-C leaves a valid partial
+bag (or no file), and --out paths that cannot be written are refused up front."""
 import os
 import signal
 import subprocess
@@ -10,6 +10,7 @@ import time
 import tracemalloc
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rotor_avc.bag import BagReader
@@ -18,9 +19,10 @@ from rotor_avc.cli import main
 from rotor_avc.cli.common import EXIT_INTERRUPTED
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import stream_run_bag, write_run_bag
-from rotor_avc.resources import ENV_VAR
+from rotor_avc.resources import ENV_VAR, ResourceError
 from rotor_avc.scenario import load_scenario, scenario_from_config
 from rotor_avc.sim.loop import BLOCK_STEPS
+from rotor_avc.sim.timeseries import TimeSeries, save_blocks
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,34 +56,55 @@ def test_streamed_bag_equals_the_bag_of_the_whole_run(tmp_path, block_steps):
     assert len(got) == len(expected) and got == expected
 
 
-def _peak_bytes(sc, tmp_path, name):
+def test_streamed_npz_equals_the_whole_run(tmp_path):
+    sc = load_scenario(str(short_scenario(tmp_path, 0.1)))
+    whole = sc.run()
+    lengths = [len(ts) for ts in save_blocks(tmp_path / "s.npz", sc.run_blocks(block_steps=137),
+                                             sc.n_steps)]
+    assert lengths == [137, 137, 137, 89]
+    got = TimeSeries.load(tmp_path / "s.npz")
+    assert got.units == whole.units and got.metadata.keys() == whole.metadata.keys()
+    for name in ("time_s", "speed_rad_s", "accel_rad_s2", "angle_rad"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(whole, name))
+    assert got.channels.keys() == whole.channels.keys()
+    for name, values in whole.channels.items():
+        np.testing.assert_array_equal(got.channels[name], values)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.npz", "short.yaml"]
+
+
+def _peak_bytes(sc, path):
+    blocks = sc.run_blocks(block_steps=400)
     tracemalloc.start()
-    for _ in stream_run_bag(tmp_path / name, sc, sc.run_blocks(block_steps=400)):
+    for _ in (stream_run_bag(path, sc, blocks) if path.suffix == ".mcap"
+              else save_blocks(path, blocks, sc.n_steps)):
         pass
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     return peak
 
 
-def test_streamed_memory_does_not_grow_with_the_duration(tmp_path):
-    short = load_scenario(str(short_scenario(tmp_path, 0.16, "a.yaml")))     # 2 blocks
-    long = load_scenario(str(short_scenario(tmp_path, 0.96, "b.yaml")))      # 12 blocks
-    p_short, p_long = _peak_bytes(short, tmp_path, "a.mcap"), _peak_bytes(long, tmp_path, "b.mcap")
-    print(f"peak traced memory: {p_short / 1e6:.2f} MB for 0.16 s, {p_long / 1e6:.2f} MB for 0.96 s")
+@pytest.mark.parametrize("suffix", [".mcap", ".npz"])
+def test_streamed_memory_does_not_grow_with_the_duration(tmp_path, suffix):
+    short = load_scenario(str(short_scenario(tmp_path, 0.96, "a.yaml")))     # 12 blocks
+    long = load_scenario(str(short_scenario(tmp_path, 2.88, "b.yaml")))      # 36 blocks
+    p_short = _peak_bytes(short, tmp_path / f"a{suffix}")
+    p_long = _peak_bytes(long, tmp_path / f"b{suffix}")
+    print(f"{suffix}: peak traced memory {p_short / 1e6:.2f} MB for 0.96 s, "
+          f"{p_long / 1e6:.2f} MB for 2.88 s")
     assert p_long < 1.25 * p_short
 
 
 def test_a_run_held_in_memory_is_refused_above_the_limit(tmp_path, capsys, monkeypatch):
-    huge = short_scenario(tmp_path, "1.0e+4")
-    assert main(["simulate", str(huge), "--out", str(tmp_path / "huge.npz")]) == 2
-    err = capsys.readouterr().err
-    assert "GiB of memory" in err and "--max-memory-gb" in err and "Traceback" not in err
-    assert not (tmp_path / "huge.npz").exists()
+    huge = load_scenario(str(short_scenario(tmp_path, "1.0e+4")))
+    with pytest.raises(ResourceError, match=r"a run of 50000000 samples held in memory needs"):
+        huge.run()
     monkeypatch.setenv(ENV_VAR, "0.0001")                    # 100 kiB: a 0.05 s run needs more
     small = short_scenario(tmp_path, 0.05, "small.yaml")
-    assert main(["simulate", str(small), "--out", str(tmp_path / "s.npz")]) == 2
-    assert ".mcap" in capsys.readouterr().err                # the fix names the streamed format
-    assert main(["simulate", str(small), "--out", str(tmp_path / "s.mcap")]) == 0
+    with pytest.raises(ResourceError, match=r"write it to a .mcap bag"):
+        load_scenario(str(small)).run()
+    for suffix in (".mcap", ".npz"):                         # streamed: within the limit
+        assert main(["simulate", str(small), "--out", str(tmp_path / f"s{suffix}")]) == 0
+    assert len(TimeSeries.load(tmp_path / "s.npz")) == 250
     with BagReader(tmp_path / "s.mcap") as bag:
         assert check_sequence(bag, 250).ok
 
@@ -123,8 +146,9 @@ def test_ctrl_c_during_an_npz_run_leaves_no_file(tmp_path):
     assert "samples" in proc.stdout.readline()          # printed just before the run starts
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == EXIT_INTERRUPTED and "interrupted" in stderr, stderr
-    assert "Traceback" not in stderr and list(tmp_path.glob("*.npz")) == []
+    assert proc.returncode == EXIT_INTERRUPTED and "interrupted" in stdout + stderr, stderr
+    assert "Traceback" not in stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short.yaml"]     # no file, no temp
 
 
 @pytest.mark.parametrize("argv", [

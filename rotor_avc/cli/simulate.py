@@ -7,12 +7,13 @@ import numpy as np
 
 from ..recording import stream_run_bag
 from ..scenario import load_scenario
+from ..sim.timeseries import save_blocks
 from .common import EXIT_INTERRUPTED, interrupt_flag, output_file, partial_name
 
 NAME = "simulate"
 HELP = ("Run a simulation scenario (machine config + `simulation:` section) in the in-process "
-        "lockstep loop and save the time series: .mcap (a bag with the ROS graph's topics, "
-        "streamed: memory independent of the duration) or .npz (held in memory; format in "
+        "lockstep loop and save the time series, streamed block by block (memory independent "
+        "of the duration): .mcap (a bag with the ROS graph's topics) or .npz (format in "
         "rotor_avc.sim.timeseries).")
 EXAMPLE = "rotor-avc simulate scenario_case3_steady --out out/case3_steady.npz"
 
@@ -37,21 +38,21 @@ def run(args) -> int:
     partial = partial_name(args.out)
     t0 = time.perf_counter()
     try:
-        if args.out.suffix == ".mcap":
-            with interrupt_flag() as interrupted:
-                n, peaks, units = _summary(stream_run_bag(
-                    partial, scenario, scenario.run_blocks(args.progress, stop=interrupted)))
-        else:
-            ts = scenario.run(progress=args.progress)
-            ts.save(partial)
-            n, peaks, units = _summary([ts])
-        partial.replace(args.out)
+        with interrupt_flag() as interrupted:
+            blocks = scenario.run_blocks(args.progress, stop=interrupted)
+            n, peaks, units = _summary(
+                stream_run_bag(partial, scenario, blocks) if args.out.suffix == ".mcap"
+                else save_blocks(partial, blocks, scenario.n_steps))
+        if partial.exists():
+            partial.replace(args.out)
     finally:
         partial.unlink(missing_ok=True)
     wall = time.perf_counter() - t0
     if n < scenario.n_steps:
-        print(f"interrupted: wrote {args.out}, a valid partial run of {n} of {scenario.n_steps} "
-              f"samples ({n * scenario.sample_period_s:g} s)")
+        kept = (f"wrote {args.out}, a valid partial run of {n} of {scenario.n_steps} samples "
+                f"({n * scenario.sample_period_s:g} s)" if args.out.suffix == ".mcap"
+                else f"nothing written ({n} of {scenario.n_steps} samples run)")
+        print(f"interrupted: {kept}")
         return EXIT_INTERRUPTED
     print(f"wrote {args.out} ({len(units)} channels x {n} samples; "
           f"{scenario.duration_s / wall:.1f}x real time)")
