@@ -17,15 +17,33 @@ treat a simulated run and a recorded ROS run alike:
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Iterable, Iterator
 
 import numpy as np
 
 from .bag import topics as T
-from .bag.writer import write_bag
+from .bag.writer import BagWriter, write_bag
 
 
 def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
     """Write the run ``ts`` of ``scenario`` (rotor_avc.scenario.Scenario) to ``path``."""
+    write_bag(path, run_streams(scenario, ts, namespace), scenario.run_config())
+    return Path(path)
+
+
+def stream_run_bag(path, scenario, blocks: Iterable, namespace: str = T.NAMESPACE) -> Iterator:
+    """Write consecutive time-series blocks of a run (``Scenario.run_blocks``) to ``path`` as
+    they come, passing each block on: memory independent of the run's length. The bag is closed
+    (valid, readable) when the blocks end -- also early, e.g. after Ctrl-C; a reader then notes
+    the run as shorter than its scenario (rotor_avc.bag.sequence)."""
+    with BagWriter(path, scenario.run_config()) as bag:
+        for ts in blocks:
+            bag.write_streams(run_streams(scenario, ts, namespace))
+            yield ts
+
+
+def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
+    """The bag streams (rotor_avc.bag.topics.Stream) of the run, or run block, ``ts``."""
     plant = scenario.machine.plant
     t = ts.time_s
     feedback = {foot: c.feedback for foot, c in scenario.machine.controllers.items()}
@@ -50,5 +68,4 @@ def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
     if test is not None:
         streams.append(T.labelled_array("plant/test_signal", t, ["time_s", test.channel],
                                         np.column_stack([t, ts[test.channel]]), namespace))
-    write_bag(path, streams, scenario.run_config())
-    return Path(path)
+    return streams

@@ -42,7 +42,7 @@ from .errors import ModelError
 from .machine import Machine, load_machine, machine_from_config, model_supports, models_supporting
 from .settings import SimulationSettings, read_settings
 from .sim.broadband import BroadbandForce, broadband_from_config
-from .sim.loop import run_loop
+from .sim.loop import BLOCK_STEPS, run_blocks, run_loop
 from .sim.propagator import DampingRule
 from .sim.speed_profile import SpeedProfile, profile_from_config
 from .sim.stepper import PlantStepper
@@ -119,14 +119,28 @@ class Scenario:
 
     def run(self, progress: bool | None = None, balancer=None, harmonic=None,
             controllers=None) -> TimeSeries:
-        """The run in the in-process loop (blocks built from the config unless given)."""
+        """The whole run in memory (its size checked first, rotor_avc.sim.loop.run_loop); the
+        blocks are built from the config unless given."""
+        stepper, controllers, n_steps, options = self._loop(balancer, harmonic, controllers)
+        return run_loop(stepper, controllers, n_steps, progress=progress, **options)
+
+    def run_blocks(self, progress: bool | None = None, stop=lambda: False,
+                   block_steps: int = BLOCK_STEPS, controllers=None):
+        """The run as consecutive time-series blocks (rotor_avc.sim.loop.run_blocks): memory
+        independent of the duration; ``stop()`` True after a block ends the run there."""
+        stepper, controllers, n_steps, options = self._loop(controllers=controllers)
+        return run_blocks(stepper, controllers, n_steps, progress=progress, stop=stop,
+                          block_steps=block_steps, **options)
+
+    def _loop(self, balancer=None, harmonic=None, controllers=None):
+        """``(stepper, controllers, n_steps, options of the loop)``."""
         meta = {"scenario": self.machine.config.source, "config": self.machine.config.data}
         balancer = self.balancer() if balancer is None else balancer
         harmonic = self.harmonic() if harmonic is None else harmonic
         controllers = self.controllers() if controllers is None else controllers
-        return run_loop(self.stepper(), controllers, self.n_steps, balancer=balancer,
-                        feedforward=self.feedforward(), harmonic=harmonic,
-                        initial_state=self.initial_state, progress=progress, metadata=meta)
+        return (self.stepper(), controllers, self.n_steps,
+                {"balancer": balancer, "feedforward": self.feedforward(), "harmonic": harmonic,
+                 "initial_state": self.initial_state, "metadata": meta})
 
 
 def relevant_mode_hz(machine: Machine) -> float:

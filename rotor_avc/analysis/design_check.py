@@ -192,46 +192,74 @@ class DivergenceError(ModelError):
     """A simulated run grew without bound (an unstable loop run with ``allow_unstable``)."""
 
 
-def divergence(ts, check: DesignCheck, blocks=None) -> str | None:
-    """Why the run ``ts`` (a :class:`~rotor_avc.sim.timeseries.TimeSeries`) diverged, or None:
-    a value that is not finite (overflow), or -- for a design ``check`` found unstable -- a
-    controller ``blocks`` that had to reject measurements (the loop ran beyond the plausible
-    range) or a channel whose largest value over the last tenth of the run is
-    :data:`DIVERGENCE_GROWTH` times that over the first tenth (the growth rate measured between
-    the two names the growing mode)."""
-    t = ts.time_s
-    for name, v in ts.channels.items():
-        bad = np.flatnonzero(~np.isfinite(v))
-        if bad.size:
-            mode = check.growing_mode()
-            return (f"the run overflowed: {name} is {v[bad[0]]} at t = {t[bad[0]]:.4g} s"
-                    + (f" (the unstable closed-loop pole {mode})" if mode else ""))
-    n = len(t) // 10
-    if not check.unstable_poles:
+class DivergenceWatch:
+    """Whether a run diverged, fed its time-series blocks in order (memory independent of the
+    run's length): a value that is not finite (overflow, said at once by :meth:`feed`), or --
+    for a design ``check`` found unstable -- a controller ``blocks`` that had to reject
+    measurements (the loop ran beyond the plausible range) or a channel whose largest value
+    over the last tenth of the ``n_steps`` samples is :data:`DIVERGENCE_GROWTH` times that over
+    the first tenth (the growth rate measured between the two names the growing mode)."""
+
+    def __init__(self, check: DesignCheck, n_steps: int, blocks=None):
+        self.check, self.blocks = check, blocks or {}
+        self.tenth = n_steps // 10
+        self.n_steps = n_steps
+        self.seen = 0
+        self.first: dict[str, float] = {}
+        self.last: dict[str, float] = {}
+        self.units: dict[str, str] = {}
+        self.span_s = [None, None]           # mid-times of the first and the last tenth
+
+    def feed(self, ts) -> str | None:
+        """Take the next block; why the run overflowed in it, or None."""
+        t, k0 = ts.time_s, self.seen
+        self.seen += len(t)
+        self.units = ts.units
+        for name, v in ts.channels.items():
+            bad = np.flatnonzero(~np.isfinite(v))
+            if bad.size:
+                mode = self.check.growing_mode()
+                return (f"the run overflowed: {name} is {v[bad[0]]} at t = {t[bad[0]]:.4g} s"
+                        + (f" (the unstable closed-loop pole {mode})" if mode else ""))
+        if self.tenth < 1:
+            return None
+        k = np.arange(k0, self.seen)
+        head, tail = k < self.tenth, k >= self.n_steps - self.tenth
+        for which, mask, store in ((0, head, self.first), (1, tail, self.last)):
+            if mask.any():
+                for name, v in ts.channels.items():
+                    store[name] = max(store.get(name, 0.0), float(np.max(np.abs(v[mask]))))
+                mid = self.tenth // 2 if which == 0 else self.n_steps - self.tenth // 2 - 1
+                if k0 <= mid < self.seen:
+                    self.span_s[which] = float(t[mid - k0])
         return None
-    for act_id, block in (blocks or {}).items():
-        if any(block.faults.values()):
-            return (f"the run diverged: controller {act_id} saw its signal beyond "
-                    f"+-{block.measurement_limit:g} (measurement_limit) and answered its safe "
-                    f"output from there ({block.faults}), as the unstable closed-loop pole "
-                    f"{check.growing_mode()}")
-    worst = None
-    for name, v in ts.channels.items():
-        if n < 1:
-            break
-        first, last = np.max(np.abs(v[:n])), np.max(np.abs(v[-n:]))
-        growth = last / first if first > 0 else (np.inf if last > 0 else 1.0)
-        if growth >= DIVERGENCE_GROWTH and (worst is None or growth > worst[1]):
-            worst = (name, growth, first, last)
-    if worst is None:
-        return None
-    name, growth, first, last = worst
-    span_s = t[-n // 2 - 1] - t[n // 2]
-    rate = math.log(growth) / span_s if np.isfinite(growth) and span_s > 0 else None
-    unit = ts.units.get(name, "")
-    return (f"the run diverged: {name} grew from {first:.3g} to {last:.3g} {unit} "
-            + (f"(e^({rate:.3g} t)) " if rate else "")
-            + f"as the unstable closed-loop pole {check.growing_mode(rate)}")
+
+    def verdict(self) -> str | None:
+        """After the last block: why the run diverged, or None."""
+        check = self.check
+        if not check.unstable_poles:
+            return None
+        for act_id, block in self.blocks.items():
+            if any(block.faults.values()):
+                return (f"the run diverged: controller {act_id} saw its signal beyond "
+                        f"+-{block.measurement_limit:g} (measurement_limit) and answered its safe "
+                        f"output from there ({block.faults}), as the unstable closed-loop pole "
+                        f"{check.growing_mode()}")
+        worst = None
+        for name, first in self.first.items():
+            last = self.last.get(name, 0.0)
+            growth = last / first if first > 0 else (np.inf if last > 0 else 1.0)
+            if growth >= DIVERGENCE_GROWTH and (worst is None or growth > worst[1]):
+                worst = (name, growth, first, last)
+        if worst is None:
+            return None
+        name, growth, first, last = worst
+        span_s = (self.span_s[1] - self.span_s[0]) if None not in self.span_s else 0.0
+        rate = math.log(growth) / span_s if np.isfinite(growth) and span_s > 0 else None
+        unit = self.units.get(name, "")
+        return (f"the run diverged: {name} grew from {first:.3g} to {last:.3g} {unit} "
+                + (f"(e^({rate:.3g} t)) " if rate else "")
+                + f"as the unstable closed-loop pole {check.growing_mode(rate)}")
 
 
 def fault_summary(blocks) -> list[str]:

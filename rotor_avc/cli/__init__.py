@@ -3,15 +3,20 @@
 Each command module defines ``NAME``, ``HELP`` (one line), ``EXAMPLE`` and ``add_arguments(p)``
 and ``run(args) -> int``. Errors the user can fix (:class:`rotor_avc.errors.RotorAvcError`) are
 printed as one line and exit with status 2 (or the error's own ``exit_status``, e.g. 3 for a
-recording with missing samples); nothing else is caught.
+recording with missing samples); Ctrl-C ends a command with one line and exit status 130;
+nothing else is caught. Every command takes ``--max-memory-gb`` and ``--max-hours``, the limits
+of rotor_avc.resources.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from ..errors import RotorAvcError
+from ..resources import DEFAULT_MAX_HOURS, DEFAULT_RAM_FRACTION, ENV_VAR, TIME_ENV_VAR
+from .common import EXIT_INTERRUPTED, positive_float
 
 COMMANDS = [
     "poles", "campbell", "frf", "controller", "simulate", "compare",     # any machine
@@ -38,17 +43,29 @@ def build_parser() -> argparse.ArgumentParser:
                            epilog="example:\n  " + mod.EXAMPLE,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         mod.add_arguments(p)
+        p.add_argument("--max-memory-gb", type=positive_float, default=None,
+                       help="refuse runs and grids planned to need more memory (GiB; default: "
+                            f"{DEFAULT_RAM_FRACTION:g} of the machine's RAM, or ${ENV_VAR})")
+        p.add_argument("--max-hours", type=positive_float, default=None,
+                       help="refuse studies estimated to run longer (hours; default: "
+                            f"{DEFAULT_MAX_HOURS:g}, or ${TIME_ENV_VAR})")
         p.set_defaults(_run=mod.run)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    for name, value in ((ENV_VAR, args.max_memory_gb), (TIME_ENV_VAR, args.max_hours)):
+        if value is not None:
+            os.environ[name] = repr(value)
     try:
         return int(args._run(args) or 0)
     except RotorAvcError as exc:
         print(f"rotor-avc {args.command}: error: {exc}", file=sys.stderr)
         return getattr(exc, "exit_status", 2)
+    except KeyboardInterrupt:
+        print(f"rotor-avc {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

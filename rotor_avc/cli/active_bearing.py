@@ -6,8 +6,6 @@ the speed where IL first drops below 0 dB and the piezo stroke-limit report; wri
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..analysis.active_bearing_ff import (METHODS, feedforward_method, il_zero_crossing,
@@ -17,7 +15,7 @@ from ..machine import load_machine
 from ..model_config.active_bearing import piezo_from_config, unbalance_kg_m
 from ..models.active_bearing import PLANES
 from ..reports.active_bearing_files import write_active_bearing_files
-from .common import speed_range_hz
+from .common import output_folder, speed_range_hz
 
 NAME = "active-bearing"
 HELP = ("Seed-002 active bearings: quantified actuator force and phase, RMS and insertion loss "
@@ -30,7 +28,7 @@ def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name (active_bearing)")
     p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
                    help="IL sweep in Hz (default: the config's analysis.il_speed_hz)")
-    p.add_argument("--out", type=Path, default=None, help="output folder for CSV, JSON and plots")
+    p.add_argument("--out", type=output_folder, default=None, help="output folder for CSV, JSON and plots")
 
 
 def _hz(speed_rad_s):

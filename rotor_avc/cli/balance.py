@@ -8,7 +8,6 @@ correction strategy, and the per-resonance peak comparison.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 
@@ -20,7 +19,7 @@ from ..config import load_config
 from ..machine import load_machine, model_supports
 from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_machine_runs,
                                     write_rigid_runs)
-from .common import nonnegative_float
+from .common import nonnegative_float, output_folder
 
 NAME = "balance"
 HELP = ("Balanced run-up (in-process) of a machine with a one-plane balancer: time series (npz), "
@@ -32,7 +31,7 @@ EXAMPLE = "rotor-avc balance balancer_rigid_rotor --out out/balance"
 def add_arguments(p) -> None:
     p.add_argument("scenario", help="config with a balancer: section (YAML path or shipped name, "
                                     "e.g. balancer_rigid_rotor, balancer_foot_mount)")
-    p.add_argument("--out", type=Path, default=Path("out/balance"), help="output folder")
+    p.add_argument("--out", type=output_folder, default="out/balance", help="output folder")
     p.add_argument("--duration-s", type=nonnegative_float, default=None,
                    help="shorten the seed-004 run-up (default: the config's duration)")
 

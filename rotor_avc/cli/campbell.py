@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 
@@ -12,7 +11,7 @@ from ..errors import ConfigError
 from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
 from ..reports.campbell_report import write_campbell_html
-from .common import speed_range_from_zero_hz
+from .common import output_folder, speed_range_from_zero_hz
 
 NAME = "campbell"
 HELP = ("Campbell diagram: every mode's damped natural frequency and damping over rotor speed "
@@ -46,7 +45,7 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true",
                    help='print {"speed_hz": [...], "modes": [{"label", "freq_hz", "damping_ratio"}], '
                         '"critical_speeds": [{"mode", "order", "speed_hz"}]}')
-    p.add_argument("--out", type=Path, help="folder for campbell.png, campbell.json and index.html")
+    p.add_argument("--out", type=output_folder, help="folder for campbell.png, campbell.json and index.html")
 
 
 def _orders(text: str) -> tuple[int, ...]:

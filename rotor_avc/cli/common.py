@@ -3,8 +3,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+import contextlib
+import signal
+from pathlib import Path
 
 import numpy as np
+
+from ..resources import FLOAT_BYTES, ResourceError, check_memory
+
+#: exit status of a command stopped by Ctrl-C (128 + SIGINT, the shell's convention)
+EXIT_INTERRUPTED = 130
 
 
 def speed_range_hz(text: str, allow_zero: bool = False) -> np.ndarray:
@@ -23,6 +31,10 @@ def speed_range_hz(text: str, allow_zero: bool = False) -> np.ndarray:
         raise argparse.ArgumentTypeError(
             f"{text!r}: need 0 {'<=' if allow_zero else '<'} START < STOP and N >= 2 "
             "(e.g. 1:250:2000)")
+    try:
+        check_memory(FLOAT_BYTES * n, f"a grid of {n} speeds", "use fewer speeds")
+    except ResourceError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
     return np.linspace(start, stop, n)
 
 
@@ -33,6 +45,13 @@ def nonnegative_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not np.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
+    return value
+
+
+def positive_float(text: str) -> float:
+    value = nonnegative_float(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
     return value
 
 
@@ -53,3 +72,58 @@ def config_frf_speeds_hz(machine) -> np.ndarray:
 def warn(command: str, text: str) -> None:
     """A warning on stderr, as ``rotor-avc COMMAND: warning: text``."""
     print(f"rotor-avc {command}: warning: {text}", file=sys.stderr)
+
+
+def _refuse_file_in_the_way(path: Path, text: str) -> None:
+    """Refuse ``path`` when one of its parent folders exists as a file."""
+    for part in path.parents:
+        if part.exists():
+            if not part.is_dir():
+                raise argparse.ArgumentTypeError(
+                    f"{part} is a file, so {text} cannot be created -- fix: give another path")
+            return
+
+
+def output_folder(text: str) -> Path:
+    """``--out FOLDER``: a folder that exists or can be created (no file in the way)."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(
+            f"{text} is an existing file, not a folder -- fix: give a folder name (it is created)")
+    _refuse_file_in_the_way(path, text)
+    return path
+
+
+def output_file(text: str, suffixes: tuple[str, ...] = ()) -> Path:
+    """``--out FILE``: a file name (ending in one of ``suffixes``) whose folder can be created;
+    an existing file is replaced only by a complete new one (:func:`partial_name`)."""
+    path = Path(text)
+    if suffixes and path.suffix not in suffixes:
+        raise argparse.ArgumentTypeError(
+            f"{text}: the name must end in {' or '.join(suffixes)} (it chooses the format)")
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder -- fix: give a file name")
+    _refuse_file_in_the_way(path, text)
+    return path
+
+
+@contextlib.contextmanager
+def interrupt_flag():
+    """While inside: Ctrl-C (SIGINT) only sets a flag, read by calling the yielded function, so
+    a long run can stop at a clean point; a second Ctrl-C interrupts at once."""
+    hit = []
+
+    def handler(signum, frame):
+        hit.append(signum)
+        signal.signal(signal.SIGINT, previous)
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield lambda: bool(hit)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def partial_name(path: Path) -> Path:
+    """The temporary name an output is written under before it is renamed to ``path``."""
+    return path.with_name(f".{path.stem}.partial{path.suffix}")

@@ -8,6 +8,7 @@ from ..compare.comparison import compare_bag
 from ..compare.mapped_run import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
+from .common import output_folder
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
@@ -34,7 +35,7 @@ def add_arguments(p) -> None:
                                     "unbalance, test_signal")
     p.add_argument("--map", type=Path, help="mapping file: topics and fields -> model signals, "
                                             "shaft source, unbalance reference (README)")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=output_folder, default=None,
                    help="report folder (created; default: out/compare_<bag name>)")
 
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from ..analysis.design_check import DesignError, check_design
 from ..analysis.poles import machine_poles
@@ -12,7 +11,7 @@ from ..control.block import build_digital_controllers
 from ..errors import ModelError
 from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
-from .common import nonnegative_float, warn
+from .common import nonnegative_float, output_folder, warn
 
 NAME = "controller"
 HELP = ("Print a foot controller's continuous G_c(s) and discrete G_d(z) coefficients, plot "
@@ -37,7 +36,7 @@ def add_arguments(p) -> None:
     p.add_argument("--speed-hz", type=nonnegative_float, default=0.0,
                    help="rotor speed of the gain-range search in Hz (default 0); damping at the "
                         "w_F of the config's continuous pole procedure")
-    p.add_argument("--out", type=Path, default=Path("."),
+    p.add_argument("--out", type=output_folder, default=".",
                    help="folder for controller_<foot>_bode.png (default: current folder)")
 
 

@@ -30,6 +30,7 @@ from ..errors import RotorAvcError
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
 from .compare import report
+from .common import output_folder
 
 NAME = "demo"
 HELP = ("The main job: seed-000 pole tables and FRFs, then the machine as a ROS graph (plant, "
@@ -44,7 +45,7 @@ BEARINGS = ("bearing_D_vz", "bearing_D_vy", "bearing_N_vz", "bearing_N_vy")
 
 
 def add_arguments(p) -> None:
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder")
+    p.add_argument("--out", type=output_folder, default="out/demo", help="output folder")
     p.add_argument("--bags", type=Path, default=Path("bags"), help="where the runs are recorded")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--in-process", action="store_true",

@@ -1,14 +1,12 @@
 """``rotor-avc frf``: closed-loop unbalance FRFs over speed, as CSV and dB plots."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
-from .common import config_frf_speeds_hz, speed_range_hz
+from .common import config_frf_speeds_hz, output_folder, speed_range_hz
 
 NAME = "frf"
 HELP = ("Synchronous (unbalance) frequency responses over rotor speed of every output and "
@@ -20,7 +18,7 @@ def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name")
     p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
                    help="rotational frequencies in Hz (default: the config's analysis.frf_speed_hz)")
-    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--out", type=output_folder, required=True, help="output folder (created)")
     p.add_argument("--no-plots", action="store_true", help="write only frf.csv")
 
 

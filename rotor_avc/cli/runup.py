@@ -15,6 +15,7 @@ from ..compare.runup_views import (api684_tables, channel_unit, housing_channels
 from ..interactive.jsonable import jsonable
 from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
 from ..reports.runup_report import api_rows, write_runup_html
+from .common import output_folder
 
 NAME = "runup"
 HELP = ("Run-up views of a bag: waterfall (spectra over speed, orders marked), 1x Bode and polar "
@@ -46,7 +47,7 @@ def operating_range(text: str) -> tuple[float, float]:
 
 def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="a run-up recorded by `rotor-avc simulate` or the recorder")
-    p.add_argument("--out", type=Path, required=True, help="output folder (created)")
+    p.add_argument("--out", type=output_folder, required=True, help="output folder (created)")
     p.add_argument("--channels", nargs="+", default=None, metavar="NAME",
                    help="channels for the 1x plots, orbits and API 684 checks (default: the "
                         "bearing housings' outputs, else every output of the plant)")

@@ -2,27 +2,29 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
-from ..analysis.design_check import DivergenceError, check_scenario, divergence, fault_summary
-from ..recording import write_run_bag
+from ..analysis.design_check import DivergenceError, DivergenceWatch, check_scenario, fault_summary
+from ..recording import stream_run_bag
 from ..scenario import load_scenario
-from .common import warn
+from ..sim.timeseries import save_blocks
+from .common import EXIT_INTERRUPTED, interrupt_flag, output_file, partial_name, warn
 
 NAME = "simulate"
 HELP = ("Run a simulation scenario (machine config + `simulation:` section) in the in-process "
-        "lockstep loop and save the time series: .mcap (a bag with the ROS graph's topics) or "
-        ".npz (format in rotor_avc.sim.timeseries).")
+        "lockstep loop and save the time series, streamed block by block (memory independent "
+        "of the duration): .mcap (a bag with the ROS graph's topics) or .npz (format in "
+        "rotor_avc.sim.timeseries).")
 EXAMPLE = "rotor-avc simulate scenario_case3_steady --out out/case3_steady.npz"
 
 
 def add_arguments(p) -> None:
     p.add_argument("scenario", help="scenario config: a YAML path or a shipped name "
                                     "(scenario_case3_steady, scenario_case2_runup, ...)")
-    p.add_argument("--out", type=Path, required=True,
-                   help="output file: .mcap (bag, rosbag2 MCAP profile) or .npz")
+    p.add_argument("--out", type=lambda text: output_file(text, (".mcap", ".npz")), required=True,
+                   help="output file: .mcap (bag, rosbag2 MCAP profile) or .npz; an existing "
+                        "file is replaced when the new run is complete")
     p.add_argument("--progress", action="store_true", default=None,
                    help="show a progress bar on stderr (default: on long runs in a terminal)")
 
@@ -36,27 +38,58 @@ def run(args) -> int:
     plant = scenario.machine.plant
     print(f"{plant.name}: {scenario.duration_s:g} s at {1 / scenario.sample_period_s:g} Hz "
           f"({scenario.n_steps} samples), {len(scenario.machine.controllers)} controller(s), "
-          f"{scenario.damping.describe()}, start: {scenario.initial_state}")
+          f"{scenario.damping.describe()}, start: {scenario.initial_state}", flush=True)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    partial = partial_name(args.out)
     t0 = time.perf_counter()
-    blocks = scenario.controllers()
-    with np.errstate(over="ignore", invalid="ignore"):     # a diverging run is said below
-        ts = scenario.run(progress=args.progress, controllers=blocks)
+    controllers = scenario.controllers()
+    watch = DivergenceWatch(check, scenario.n_steps, controllers)
+
+    def watched(blocks):
+        """The blocks, each checked for overflow; the growth is judged at the end."""
+        for ts in blocks:
+            why = watch.feed(ts)
+            if why:
+                raise DivergenceError(f"{why} -- nothing written")
+            yield ts
+    try:
+        with interrupt_flag() as interrupted, np.errstate(over="ignore", invalid="ignore"):
+            blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,
+                                                 controllers=controllers))
+            n, peaks, units = _summary(
+                stream_run_bag(partial, scenario, blocks) if args.out.suffix == ".mcap"
+                else save_blocks(partial, blocks, scenario.n_steps))
+        why = watch.verdict() if n == scenario.n_steps else None
+        if why:
+            raise DivergenceError(f"{why} -- nothing written")
+        if partial.exists():
+            partial.replace(args.out)
+    finally:
+        partial.unlink(missing_ok=True)
     wall = time.perf_counter() - t0
-    why = divergence(ts, check, blocks)
-    if why:
-        raise DivergenceError(f"{why} -- nothing written")
-    for text in fault_summary(blocks):
+    for text in fault_summary(controllers):
         warn(NAME, text)
-    if args.out.suffix == ".mcap":
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        path = write_run_bag(args.out, scenario, ts)
-    else:
-        path = ts.save(args.out)
-    print(f"wrote {path} ({len(ts.channels)} channels x {len(ts)} samples; "
+    if n < scenario.n_steps:
+        kept = (f"wrote {args.out}, a valid partial run of {n} of {scenario.n_steps} samples "
+                f"({n * scenario.sample_period_s:g} s)" if args.out.suffix == ".mcap"
+                else f"nothing written ({n} of {scenario.n_steps} samples run)")
+        print(f"interrupted: {kept}")
+        return EXIT_INTERRUPTED
+    print(f"wrote {args.out} ({len(units)} channels x {n} samples; "
           f"{scenario.duration_s / wall:.1f}x real time)")
-    peaks = {k: float(np.max(np.abs(v))) for k, v in ts.channels.items()
-             if k.startswith("bearing_")}
     if peaks:
         name = max(peaks, key=peaks.get)
-        print(f"largest bearing-housing value: {name} {peaks[name]:.3g} {ts.units[name]}")
+        print(f"largest bearing-housing value: {name} {peaks[name]:.3g} {units[name]}")
     return 0
+
+
+def _summary(blocks) -> tuple[int, dict[str, float], dict[str, str]]:
+    """Samples, peak absolute bearing-housing values and units over the run's blocks."""
+    n, peaks, units = 0, {}, {}
+    for ts in blocks:
+        n += len(ts)
+        units = ts.units
+        for name, values in ts.channels.items():
+            if name.startswith("bearing_"):
+                peaks[name] = max(peaks.get(name, 0.0), float(np.max(np.abs(values))))
+    return n, peaks, units

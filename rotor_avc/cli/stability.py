@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from ..analysis.stability_study import (RAD_S_PER_RPM, machine_threshold, parse_vary, run_study,
                                         study_from_config, threshold_settings, with_variants)
@@ -12,6 +11,7 @@ from ..errors import ConfigError
 from ..reports.stability_files import plot_campbell, plot_map, write_study_rows, write_threshold
 from ..reports.stability_report import write_stability_study_html
 from ..studies.backends import add_backend_arguments, backend_from_args
+from .common import output_folder
 
 NAME = "stability"
 HELP = ("Threshold of stability of a machine with loss-factor and internal damping (eigenvalues "
@@ -33,7 +33,7 @@ def add_arguments(p) -> None:
                    help="vary a dotted config path (once or twice for a 2-D map); comma-join paths "
                         "that take the same value, `*=` for factors on the base values, "
                         "START:STOP:N:log for log spacing or [v1,v2,...] for a list")
-    p.add_argument("--out", type=Path, help="folder for threshold.json / thresholds.csv and plots "
+    p.add_argument("--out", type=output_folder, help="folder for threshold.json / thresholds.csv and plots "
                                             "(a map's points also go to DIR/points/, resumed)")
     p.add_argument("--json", action="store_true",
                    help='print {"threshold_rpm", "whirl_rad_s", "critical_mode"} (threshold_rpm null '

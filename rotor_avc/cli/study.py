@@ -18,6 +18,7 @@ from ..machine import load_machine
 from ..reports.gain_study_files import write_gain_study
 from ..studies.backends import add_backend_arguments, backend_from_args
 from . import robustness, strategies
+from .common import output_folder
 
 NAME = "study"
 HELP = ("Sweep a controller gain (same controller on every actuator) and write the forced "
@@ -56,7 +57,7 @@ def add_arguments(p) -> None:
     p.add_argument("--fixed", action="append", default=[], metavar="NAME=VALUE",
                    help="value of a gain that is not swept (e.g. kd=2.0e+3 for a PD sweep)")
     p.add_argument("--excitation", help="excitation (default analysis.study.excitation)")
-    p.add_argument("--out", type=Path, help="output folder (default out/study, for the robustness "
+    p.add_argument("--out", type=output_folder, help="output folder (default out/study, for the robustness "
                                             "study out/robustness)")
     p.add_argument("--no-plots", action="store_true", help="write only the CSV files")
     for mode in MODES.values():

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from ..resources import COMPLEX_BYTES, check_memory, chunks
 from .loop import ClosedLoop
 from .modal_frf import solve_over_speed
 
@@ -56,17 +57,39 @@ def unbalance_frf(loop: ClosedLoop, speed_rad_s, excitations=None, w_F=None,
     """Synchronous responses of every output and actuator force to each excitation.
 
     ``accel_rad_s2`` (scalar or per speed) adds the tangential ``-j Omega'`` part of the phasor
-    of an accelerating rotor (quasi-steady 1x influence coefficients during a run-up)."""
+    of an accelerating rotor (quasi-steady 1x influence coefficients during a run-up).
+    The size of the result is checked first (rotor_avc.resources); the speeds are evaluated in
+    chunks, so the batched solve's matrices stay a bounded size."""
     plant = loop.plant
     speeds = np.atleast_1d(np.asarray(speed_rad_s, dtype=float))
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(speeds <= 0):
         raise ModelError("FRF speeds must be a non-empty list of positive, finite speeds")
     excs = plant.excitations if excitations is None else [plant.excitation(e) for e in excitations]
+    n, m = len(plant.coords), len(excs)
+    n_responses = (len(plant.outputs) + len(plant.force_points)) * m
+    check_memory(speeds.size * n_responses * COMPLEX_BYTES, f"an FRF over {speeds.size} speeds",
+                 "use fewer speeds")
     w_F = plant.forced_damping_frequency(speeds) if w_F is None else np.broadcast_to(w_F, speeds.shape)
-    s = 1j * speeds
+    w_F = np.asarray(w_F, dtype=float)
     accel = np.broadcast_to(np.asarray(accel_rad_s2, dtype=float), speeds.shape)
+    per_speed = COMPLEX_BYTES * (2 * n * n + 4 * n * m + 2 * n_responses)
+    blocks = [_frf_block(loop, excs, speeds[a:b], w_F[a:b], accel[a:b])
+              for a, b in chunks(speeds.size, per_speed)]
+    if len(blocks) == 1:
+        return blocks[0]
+    result = SpeedFrf(speeds, {}, {}, {})
+    for key, (quantity, excitation) in blocks[0].parts.items():
+        result.add(quantity, excitation, np.concatenate([b.responses[key] for b in blocks]),
+                   blocks[0].units[key])
+    return result
+
+
+def _frf_block(loop: ClosedLoop, excs, speeds, w_F, accel) -> SpeedFrf:
+    """:func:`unbalance_frf` at one chunk of speeds."""
+    plant = loop.plant
+    s = 1j * speeds
     F = np.stack([e.phasor(speeds, accel) for e in excs], axis=-1)   # (N, n, m)
-    Q = solve_over_speed(loop, speeds, np.asarray(w_F, dtype=float), F)   # (N, n, m)
+    Q = solve_over_speed(loop, speeds, w_F, F)   # (N, n, m)
     names, rows, orders = plant.output_rows()
     derivative = np.stack([np.ones_like(s), s, s * s], axis=-1)[:, orders]        # (N, k)
     N, n, m = Q.shape

@@ -56,7 +56,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..errors import RotorAvcError
-from ..sim.loop import forces_from_answers, start, timeseries_from_run
+from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_from_run
 from . import messages as m
 from . import taps
 from .lockstep import AnswerBook
@@ -144,6 +144,7 @@ class PlantSimulator(Node):
         self.last_force_time = {foot: None for foot in self.driven}
         self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
         self.schedule = Schedule(self.T)
+        check_run_memory(self.stepper, self.n_steps, self.p["balancer"])
         self.Y = np.empty((self.n_steps, len(lay.names)))
         self.U = np.empty((self.n_steps, self.stepper.n_inputs))
         self.C = (np.zeros((self.n_steps, len(plant.excitations)), complex)

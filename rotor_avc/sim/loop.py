@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Mapping
+from typing import Iterator, Mapping
 
 import numpy as np
 
 from .. import __version__
 from ..blocks import Balancer, Harmonic, LoopSample, Synchronous
 from ..errors import ModelError
+from ..resources import FLOAT_BYTES, check_memory
 from ..settings import INITIAL_STATES
 from .steady_state import start_in_steady_state
 from .stepper import PlantStepper
@@ -161,19 +162,48 @@ class Progress:
         sys.stderr.flush()
 
 
-def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
-             balancer: Balancer | None = None, feedforward: Synchronous | None = None,
-             harmonic: Harmonic | None = None,
-             initial_state: str = "rest", progress: bool | None = None,
-             metadata: dict | None = None) -> TimeSeries:
+#: samples per block of a streamed run (:func:`run_blocks`): a few MB of signals per block
+BLOCK_STEPS = 10_000
+
+
+def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, **options) -> TimeSeries:
     """Run ``n_steps`` samples of the lockstep loop from ``t = 0``; return the time series.
+
+    Options as :func:`run_blocks`; the whole run is one block, its size estimated first
+    (:func:`check_run_memory`)."""
+    check_run_memory(stepper, n_steps, options.get("balancer") is not None)
+    (ts,) = run_blocks(stepper, controllers, n_steps, block_steps=max(n_steps, 1), **options)
+    return ts
+
+
+def check_run_memory(stepper: PlantStepper, n_steps: int, balancer: bool = False) -> None:
+    """Refuse a run held in memory whose time series would exceed the memory limit.
+
+    Per sample: the measurements, forces and corrections while running, then their channel
+    copies, the four time axes and the test force (:func:`timeseries_from_run`)."""
+    n_exc = len(stepper.plant.excitations) if balancer else 0
+    per_sample = FLOAT_BYTES * (2 * (len(stepper.layout.names) + stepper.n_inputs + 2 * n_exc)
+                                + len(stepper.plant.force_points) + 5)
+    check_memory(per_sample * n_steps, f"a run of {n_steps} samples held in memory",
+                 "write it to a .mcap bag (streamed, memory independent of the duration) or "
+                 "shorten simulation.duration_s")
+
+
+def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
+               block_steps: int = BLOCK_STEPS, balancer: Balancer | None = None,
+               feedforward: Synchronous | None = None, harmonic: Harmonic | None = None,
+               initial_state: str = "rest", progress: bool | None = None,
+               metadata: dict | None = None, stop=lambda: False) -> Iterator[TimeSeries]:
+    """Run ``n_steps`` samples of the lockstep loop from ``t = 0``, yielding the time series in
+    blocks of ``block_steps`` samples (memory independent of ``n_steps``).
 
     ``feedforward``: a synchronous force generator (rotor_avc.control.synchronous) whose forces
     drive its actuators (which then have no feedback controller), from the shaft angle and speed
     at ``t_k``.
     ``harmonic``: an adaptive harmonic controller block (rotor_avc.harmonic.block) whose forces
     add to those of the feedback controllers (:func:`harmonic_forces`).
-    ``progress``: True/False, or None for "when stderr is a terminal and the run is long"."""
+    ``progress``: True/False, or None for "when stderr is a terminal and the run is long".
+    ``stop``: called after each block; True ends the run there (e.g. on Ctrl-C)."""
     if not isinstance(n_steps, int) or n_steps < 1:
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
     plan = control_plan(stepper, controllers)
@@ -187,37 +217,44 @@ def run_loop(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         progress = sys.stderr.isatty() and n_steps >= 50_000
     bar = Progress(n_steps, stepper.T, progress)
     y = start(stepper, controllers, initial_state, balancer)
-    Y = np.empty((n_steps, y.size))
-    U = np.empty((n_steps, stepper.n_inputs))
-    C = np.zeros((n_steps, len(stepper.plant.excitations)), complex) if balancer else None
     u = np.zeros(stepper.n_inputs)
     step = stepper.step
-    for k in range(n_steps):
-        Y[k] = y
-        controller_forces(plan, y, u)
-        if feedforward is not None:
-            speed, _, angle = stepper.speed_state()
-            u[ff_pos] = feedforward.step(angle, speed)
-        if h_plan is not None:
-            harmonic_forces(stepper, harmonic, h_plan, y, u)
-        U[k] = u
-        if balancer is not None:
-            balancer_update(stepper, balancer, k, y)
-            C[k] = list(stepper.correction.values())
-        y = step(u)
-        if not k & 0x3FFF:
-            bar.update(k)
+    for k0 in range(0, n_steps, block_steps):
+        n = min(block_steps, n_steps - k0)
+        Y = np.empty((n, y.size))
+        U = np.empty((n, stepper.n_inputs))
+        C = np.zeros((n, len(stepper.plant.excitations)), complex) if balancer else None
+        for j in range(n):
+            k = k0 + j
+            Y[j] = y
+            controller_forces(plan, y, u)
+            if feedforward is not None:
+                speed, _, angle = stepper.speed_state()
+                u[ff_pos] = feedforward.step(angle, speed)
+            if h_plan is not None:
+                harmonic_forces(stepper, harmonic, h_plan, y, u)
+            U[j] = u
+            if balancer is not None:
+                balancer_update(stepper, balancer, k, y)
+                C[j] = list(stepper.correction.values())
+            y = step(u)
+            if not k & 0x3FFF:
+                bar.update(k)
+        meta = dict(metadata or {})
+        if harmonic is not None:
+            meta["harmonic"] = {"controller": harmonic.describe(), "status": harmonic.status}
+        yield timeseries_from_run(stepper, Y, U, C, meta, initial_state, controllers, k0)
+        if stop():
+            break
     bar.update(n_steps, final=True)
-    meta = dict(metadata or {})
-    if harmonic is not None:
-        meta["harmonic"] = {"controller": harmonic.describe(), "status": harmonic.status}
-    return timeseries_from_run(stepper, Y, U, C, meta, initial_state, controllers)
 
 
-def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) -> TimeSeries:
-    """The recorded measurements ``Y``, forces ``U`` and corrections ``C`` as a time series."""
+def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers,
+                        first: int = 0) -> TimeSeries:
+    """The recorded measurements ``Y``, forces ``U`` and corrections ``C`` of samples
+    ``first, first + 1, ...`` as a time series."""
     n = Y.shape[0]
-    t = np.arange(n) * stepper.T
+    t = (first + np.arange(n)) * stepper.T
     speed, accel, angle = stepper.profile.sample(t)
     lay = stepper.layout
     channels = {name: Y[:, i].copy() for i, name in enumerate(lay.names)}
@@ -229,7 +266,7 @@ def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers) 
         units[name] = "N"
     test = stepper.test_force
     if test is not None:           # d_k, added to u_k by the stepper (rotor_avc.sim.broadband)
-        channels[test.channel] = test.values(0, n)
+        channels[test.channel] = test.values(first, n)
         units[test.channel] = "N"
     if C is not None:
         for j, exc in enumerate(stepper.plant.excitations):

@@ -41,6 +41,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ModelError
+from ..resources import FLOAT_BYTES, check_memory
 from ..models.discretize import continuous_state_space
 from ..models.plant import LinearPlant
 from ..settings import DAMPING_RULES
@@ -137,6 +138,10 @@ def max_node_spacing(plant: LinearPlant, sample_period_s: float, rel_tol: float)
     return float(min(widths))
 
 
+#: state-sized matrices the table keeps per speed node (propagators and their differences)
+NODE_MATRICES = 4
+
+
 def speed_nodes(plant: LinearPlant, rule: DampingRule, lo: float, hi: float, fixed,
                 rel_tol: float, max_width: float = np.inf) -> np.ndarray:
     """Node speeds covering ``[lo, hi]`` (see the module docstring), including ``fixed``; no
@@ -151,7 +156,13 @@ def speed_nodes(plant: LinearPlant, rule: DampingRule, lo: float, hi: float, fix
     if nodes.size < 2:
         return nodes
     # the width cap first (uniform split of each interval), then bisection on curvature
-    parts = np.maximum(1, np.ceil(np.diff(nodes) / max_width)).astype(int)
+    parts = np.maximum(1, np.ceil(np.diff(nodes) / max_width))
+    n_states = 2 * len(plant.coords)
+    check_memory(float(parts.sum()) * NODE_MATRICES * FLOAT_BYTES * n_states ** 2,
+                 f"the simulation's speed grid of {parts.sum():.3g} nodes",
+                 "check the units of the rotor's inertias and the speed range (the grid's spacing "
+                 "follows the gyroscopic coupling)")
+    parts = parts.astype(int)
     nodes = np.unique(np.concatenate([np.linspace(a, b, k + 1) for a, b, k
                                       in zip(nodes[:-1], nodes[1:], parts)]))
     min_width = 1e-9 * max(hi, 1.0)

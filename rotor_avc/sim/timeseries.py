@@ -23,9 +23,13 @@ sample period, damping rule, initial state, software version).
 """
 from __future__ import annotations
 
+import io
 import json
+import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Iterable, Iterator
 
 import numpy as np
 
@@ -57,16 +61,21 @@ class TimeSeries:
     # -- files ---------------------------------------------------------------------------------
     def save(self, path) -> Path:
         """Write the ``.npz`` format of the module docstring; returns the path."""
-        path = Path(path)
-        if path.suffix != ".npz":
-            raise ModelError(f"time series files end in .npz (got {path.name})")
-        meta = dict(self.metadata, units=self.units, format=FORMAT)
-        arrays = {k: getattr(self, k) for k in AXES}
-        arrays.update({f"ch:{k}": v for k, v in self.channels.items()})
-        arrays["metadata_json"] = np.array(json.dumps(meta, default=_jsonable))
+        path = _npz_path(path)
+        arrays = self._arrays()
+        arrays["metadata_json"] = self._metadata_json()
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(path, **arrays)
         return path
+
+    def _arrays(self) -> dict[str, np.ndarray]:
+        arrays = {k: getattr(self, k) for k in AXES}
+        arrays.update({f"ch:{k}": v for k, v in self.channels.items()})
+        return arrays
+
+    def _metadata_json(self) -> np.ndarray:
+        return np.array(json.dumps(dict(self.metadata, units=self.units, format=FORMAT),
+                                   default=_jsonable))
 
     @classmethod
     def load(cls, path) -> "TimeSeries":
@@ -82,6 +91,46 @@ class TimeSeries:
         units = meta.pop("units")
         meta.pop("format")
         return cls(**axes, channels=channels, units=units, metadata=meta)
+
+
+def save_blocks(path, blocks: Iterable[TimeSeries], n_samples: int) -> Iterator[TimeSeries]:
+    """Write consecutive blocks of one run of ``n_samples`` samples to the ``.npz`` format as
+    they come, passing each block on: memory independent of the run's length. Each array is
+    appended to its own ``.npy`` file (length declared up front) next to ``path``, and the files
+    are deflated into ``path`` one by one when all ``n_samples`` have come; a run that ends
+    early writes nothing."""
+    path = _npz_path(path)
+    written, last = 0, None
+    with tempfile.TemporaryDirectory(dir=path.parent, prefix=f".{path.stem}.") as tmp:
+        files: dict[str, object] = {}
+        try:
+            for ts in blocks:
+                for key, values in ts._arrays().items():
+                    if key not in files:
+                        files[key] = open(Path(tmp) / f"{len(files)}.npy", "wb")
+                        np.lib.format.write_array_header_1_0(files[key], {
+                            "descr": "<f8", "fortran_order": False, "shape": (n_samples,)})
+                    files[key].write(np.ascontiguousarray(values, "<f8").tobytes())
+                written, last = written + len(ts), ts
+                yield ts
+        finally:
+            for f in files.values():
+                f.close()
+        if written != n_samples:
+            return
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
+            for key, f in files.items():
+                zf.write(f.name, f"{key}.npy")
+            buffer = io.BytesIO()
+            np.lib.format.write_array(buffer, last._metadata_json())
+            zf.writestr("metadata_json.npy", buffer.getvalue())
+
+
+def _npz_path(path) -> Path:
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise ModelError(f"time series files end in .npz (got {path.name})")
+    return path
 
 
 def _jsonable(value):

@@ -26,8 +26,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..resources import check_memory, check_time
 from .backends import SerialBackend
 from .output import ResultStore
+from .points import OUTCOME_BYTES
 from .progress import Progress
 from .spec import Outcome, StudySpec, evaluate_batch
 
@@ -76,6 +78,7 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
     backend = backend or SerialBackend()
     t0 = time.perf_counter()
     n = len(spec.points)
+    check_memory(n * OUTCOME_BYTES, f"a study of {n} points", "use fewer points")
     store = ResultStore(Path(out), spec) if out is not None else None
     done: dict[int, Outcome] = dict(store.done) if store else {}
     todo = [i for i in range(n) if i not in done]
@@ -98,6 +101,10 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
     try:
         first, cost = (0, None) if batch_size or not todo else _calibrate(spec, todo, record)
         rest = todo[first:]
+        if cost:
+            check_time(cost * len(rest) / backend.workers,
+                       f"the study's {len(rest)} remaining points at {cost:.3g} s each on "
+                       f"{backend.workers} worker(s)", "use fewer points or more workers")
         size = batch_size or (max(math.ceil(TASK_TARGET_S / cost), math.ceil(len(rest) / MAX_TASKS))
                               if cost else 1)
         if rest:

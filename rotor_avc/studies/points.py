@@ -26,6 +26,7 @@ import yaml
 
 from ..config import Section
 from ..errors import ConfigError
+from ..resources import check_memory
 from .overrides import get_path, with_overrides
 
 
@@ -70,6 +71,10 @@ def _split_axis(text: str, field: str, fix: str) -> tuple[tuple[str, ...], bool,
 
 
 # -- grids ----------------------------------------------------------------------------------------
+#: memory planned per point of a study (its outcome record and bookkeeping)
+OUTCOME_BYTES = 4096
+
+
 @dataclass(frozen=True)
 class Vary(ConfigAxis):
     """One axis of a grid: config paths that move together over ``values``."""
@@ -100,6 +105,7 @@ def parse_vary(text: str, field: str = "--vary") -> Vary:
             raise ConfigError(field, f"{rhs!r} is not START:STOP:N[:log]", fix=fix) from None
         if n < 1 or not (math.isfinite(start) and math.isfinite(stop)):
             raise ConfigError(field, f"{rhs!r}: need finite START, STOP and N >= 1", fix=fix)
+        check_memory(n * OUTCOME_BYTES, f"{field} {text}: {n} values", "use fewer values")
         if len(parts) == 4:
             if start <= 0 or stop <= 0:
                 raise ConfigError(field, f"{rhs!r}: a log range needs START, STOP > 0", fix=fix)
