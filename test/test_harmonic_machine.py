@@ -154,6 +154,48 @@ simulation: {{duration_s: 2.0, speed: {{type: constant, speed_hz: {OFF_RESONANCE
     assert main(["study", "strategies"]) == 2              # scenario missing: a clear error
 
 
+def test_2x_sensor_runout_cancelled_through_the_plant_beside_the_1x():
+    # harmonics 1x and 2x at the resonance; the probes see a 2x runout R the plant does not
+    # have: the block drives the housings to -R at 2x (recorded channels, time simulation) with
+    # the minimum-norm forces -pinv(G(2 Omega)) R of the model's FRF, and the 1x as before;
+    # the one-revolution loop with both harmonics is stable, as the simulation shows
+    runout = np.array([2e-4 * np.exp(0.5j), 1e-4 * np.exp(-1.1j)])
+    scen = scenario("scenario_harmonic_case2_steady", AT_RESONANCE_HZ, 6.0, harmonics=[1, 2],
+                    runout=[{"sensor": s, "order": 2, "magnitude": float(abs(r)),
+                             "phase_deg": float(np.angle(r, deg=True))}
+                            for s, r in zip(SENSORS, runout)])
+    block = scen.harmonic()
+    w = 2 * np.pi * AT_RESONANCE_HZ
+    poles = harmonic_poles(machine_sampled_loop(scen.machine, scen.sample_period_s), w, w,
+                           block.actuator_ids, block.sensors, block.harmonics,
+                           block.schedule.at(w), block.settings.law, block.settings.gain)
+    assert poles.stable
+    ts = scen.run(harmonic=block)
+    P, k0 = 290, int(FS)
+    y = np.stack([ts.channels[c] for c in SENSORS], axis=1)
+    seen = y + np.array([block.runout(a) for a in ts.angle_rad])
+    theta = ts.angle_rad
+    for h, before in ((1, phasor(theta[k0 - P:k0], y[k0 - P:k0])), (2, runout)):
+        after = phasor(h * theta[-P:], seen[-P:])
+        assert np.all(np.abs(after) < 1e-2 * np.abs(before)), h          # >= 40 dB
+    assert np.abs(phasor(2 * theta[-P:], y[-P:]) + runout).max() < 1e-2 * np.abs(runout).max()
+    G2 = sampled_transfer_matrix(scen, 2 * w, block)
+    assert np.abs(block.U[1] + np.linalg.pinv(G2) @ runout).max() < 1e-2 * np.abs(block.U[1]).max()
+
+
+def sampled_transfer_matrix(scen, freq_rad_s, block):
+    """The sampled-loop FRF (sensors x actuators) at one frequency, the block's speed."""
+    from rotor_avc.analysis.transfer import sampled_transfer_frf
+    loop = machine_sampled_loop(scen.machine, scen.sample_period_s)
+    speed = float(scen.profile.speeds_rad_s[0])
+    G = np.zeros((len(block.sensors), len(block.actuator_ids)), complex)
+    for j, act in enumerate(block.actuator_ids):
+        frf = sampled_transfer_frf(loop, speed, [freq_rad_s / (2 * np.pi)], act,
+                                   list(block.sensors), None)
+        G[:, j] = [frf.responses[s][0] for s in block.sensors]
+    return G
+
+
 def test_adapting_in_the_excitations_identifies_the_unbalance():
     # the excitation estimate behind the phasors converges to the run's own unbalance (static
     # 1e-2 kg m at 0 deg, moment 2e-3 kg m^2 at 90 deg): the balancer plane's quantity, here
