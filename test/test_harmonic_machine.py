@@ -220,13 +220,36 @@ def test_runup_phasors_from_the_exact_unbalance_are_limited_by_the_sweep_rate():
     assert reductions[0] > 40.0 and reductions[0] > reductions[1] + 20.0, reductions
 
 
-def runup(rate_hz_s, stop_hz, harmonic, **changes):
-    """scenario_harmonic_case2_runup at ``rate_hz_s`` from 0 Hz, up to ``stop_hz``."""
-    data = copy.deepcopy(load_config("scenario_harmonic_case2_runup").data)
+def runup(rate_hz_s, stop_hz, harmonic, name="scenario_harmonic_case2_runup", **changes):
+    """A run-up scenario (0 -> 120 Hz) at ``rate_hz_s``, cut at ``stop_hz``."""
+    data = copy.deepcopy(load_config(name).data)
     data["simulation"].update(duration_s=stop_hz / rate_hz_s, harmonic=harmonic, speed={
         "type": "ramp", "start_hz": 0.0, "stop_hz": 120.0, "duration_s": 120.0 / rate_hz_s})
     data["harmonic"].update(changes)
-    return scenario_from_config(data, "scenario_harmonic_case2_runup")
+    return scenario_from_config(data, name)
+
+
+@pytest.mark.sweep
+def test_runup_with_case3_feedback_20db_below_case2_at_every_resonance(full):
+    # case 3 + harmonic control adapting the unbalance estimate with the speed-scheduled
+    # influence matrix: every resonance of the case-2 model (its sampled-loop unbalance
+    # response) passed in the run-up; short form up to 30 Hz (both sensors' eight
+    # peaks, 7.5-25 Hz) at 2 Hz/s, full 0 -> 120 Hz at 1 and 2 Hz/s
+    from rotor_avc.harmonic.strategy_study import (StrategyResult, model_resonances,
+                                                   peak_reductions, revolutions)
+    stop_hz, rates = (120.0, (1.0, 2.0)) if full else (30.0, (2.0,))
+    for rate_hz_s in rates:
+        case2 = runup(rate_hz_s, stop_hz, False)
+        both = runup(rate_hz_s, stop_hz, True, "scenario_harmonic_case3_runup")
+        results = []
+        for scen in (case2, both):
+            t, f, amps = revolutions(scen.run(), SENSORS)
+            results.append(StrategyResult("", t, f, amps, amps, [], None, 0.0, 0.0))
+        resonances = [(s, f) for s, f in model_resonances(case2, SENSORS) if f < stop_hz - 1]
+        assert len(resonances) >= 8
+        reductions = peak_reductions(results[1], results[0], SENSORS, resonances)
+        assert set(reductions) == set(resonances)
+        assert min(reductions.values()) >= 20.0, (rate_hz_s, reductions)
 
 
 def test_adapting_in_the_excitations_identifies_the_unbalance():
