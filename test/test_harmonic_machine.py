@@ -160,7 +160,7 @@ def test_2x_sensor_runout_cancelled_through_the_plant_beside_the_1x():
     # the minimum-norm forces -pinv(G(2 Omega)) R of the model's FRF, and the 1x as before;
     # the one-revolution loop with both harmonics is stable, as the simulation shows
     runout = np.array([2e-4 * np.exp(0.5j), 1e-4 * np.exp(-1.1j)])
-    scen = scenario("scenario_harmonic_case2_steady", AT_RESONANCE_HZ, 6.0, harmonics=[1, 2],
+    scen = scenario("scenario_harmonic_case2_steady", AT_RESONANCE_HZ, 8.0, harmonics=[1, 2],
                     runout=[{"sensor": s, "order": 2, "magnitude": float(abs(r)),
                              "phase_deg": float(np.angle(r, deg=True))}
                             for s, r in zip(SENSORS, runout)])
