@@ -35,7 +35,9 @@ class WithRunout:
         self.terms = tuple((i, h, complex(amp).real, complex(amp).imag) for i, h, amp in terms)
 
     def __getattr__(self, name):
-        return getattr(self.__dict__["block"], name)
+        if name == "block":                      # not yet set (copying): no recursion
+            raise AttributeError(name)
+        return getattr(self.block, name)
 
     def runout(self, angle: float) -> list[float]:
         """The runout of each sensor at the shaft angle (rad)."""
