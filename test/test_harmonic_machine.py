@@ -200,7 +200,7 @@ def test_runup_phasors_from_the_exact_unbalance_are_limited_by_the_sweep_rate():
     # adapting in the excitations with the run's exact unbalance as the estimate (gain ~0: no
     # adaptation error) and the model's own schedule: U = -pinv(G) H C cancels the 1x only
     # quasi-steadily, so through the lightly damped 17.2 Hz mode the residual peak grows with
-    # the sweep rate -- the limit of any per-revolution phasor law in a fast run-up
+    # the sweep rate: the limit of quasi-steady phasors in a fast run-up on the open feet
     from rotor_avc.harmonic.strategy_study import revolutions
     reductions = []
     for rate_hz_s in (0.5, 2.0):
