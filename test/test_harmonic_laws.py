@@ -147,6 +147,14 @@ def test_settings_and_config_errors():
                           ({"fallback": {"mode": "stop"}}, "harmonic.fallback.mode"),
                           ({"identification": {"forgeting": 0.9}},
                            "harmonic.identification.forgeting"),
+                          ({"runout": [{"sensor": "bearing_X_vz", "magnitude": 1e-4}]},
+                           "harmonic.runout[0].sensor"),
+                          ({"runout": [{"sensor": "bearing_D_vz", "order": 0, "magnitude": 1}]},
+                           "harmonic.runout[0].order"),
+                          ({"runout": [{"sensor": "bearing_D_vz", "magnitude": -1.0}]},
+                           "harmonic.runout[0].magnitude"),
+                          ({"runout": [{"sensor": "bearing_D_vz", "magnitud": 1.0}]},
+                           "harmonic.runout[0]"),
                           ({"colour": 1}, "harmonic.colour")):
         data = {**base, "harmonic": {**base["harmonic"], **change}}
         with pytest.raises(ConfigError) as err:

@@ -225,16 +225,21 @@ def test_feedforward_node_in_lockstep_equals_in_process():
     assert np.max(np.abs(ref["actuator_x2_fx"])) > 0 and not plant.fault_log
 
 
-@pytest.mark.parametrize("machine", ["foot_mount_case2", "foot_mount_case3"])
-def test_harmonic_node_in_lockstep_equals_in_process(tmp_path, machine):
+TWO_X = ("harmonics: [1, 2], runout: [{sensor: bearing_D_vz, order: 2, magnitude: 2.0e-4, "
+         "phase_deg: 30.0}, {sensor: bearing_N_vz, order: 2, magnitude: 1.0e-4}]")
+
+
+@pytest.mark.parametrize("machine, extra", [("foot_mount_case2", ""), ("foot_mount_case3", ""),
+                                            ("foot_mount_case2", TWO_X)])
+def test_harmonic_node_in_lockstep_equals_in_process(tmp_path, machine, extra):
     """The harmonic_controller node (bearing-housing 1x, 50 Hz, updates every revolution from
-    the start) alone (case 2) and beside the foot controllers (case 3): bit for bit the
-    in-process loop with the same block."""
+    the start) alone (case 2), beside the foot controllers (case 3), and with the 2x as well
+    against a 2x sensor runout (case 2): bit for bit the in-process loop with the same block."""
     from rotor_avc.config import find_config
     from rotor_avc.nodes.harmonic_controller import HarmonicControllerNode
     path = tmp_path / f"harmonic_{machine}.yaml"
     path.write_text(f"""include: [{find_config(machine)}, {find_config('harmonic_bearings')}]
-harmonic: {{min_speed_hz: 40.0}}
+harmonic: {{min_speed_hz: 40.0{', ' + extra if extra else ''}}}
 simulation:
   sample_rate_hz: 5000.0
   duration_s: 0.2
@@ -258,4 +263,5 @@ simulation:
     for ch, values in ref.channels.items():
         assert np.array_equal(ts[ch], values), ch
     assert block.n_updates >= 9 and np.max(np.abs(ref["actuator_DL_fz"])) > 0
+    assert np.all(np.abs(block.U) > 0) and len(block.harmonics) == (2 if extra else 1)
     assert not plant.fault_log

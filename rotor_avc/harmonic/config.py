@@ -29,6 +29,8 @@
         min_change_n: 1.0e-3               # smaller changes (N) are not learnt from,
         min_rel_change: 0.1                # nor changes below this fraction of the phasors
         seed: 0
+      runout:                              # optional simulated sensor runout (.runout)
+        - {sensor: bearing_D_vz, order: 2, magnitude: 1.0e-4, phase_deg: 0.0}
       fallback:
         mode: freeze                       # freeze | fade
         divergence_factor: 100.0           # growth of |E| / Omega^2 since switch-on = diverging
@@ -52,11 +54,12 @@ from ..errors import ModelError
 from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings
 from .influence import model_schedule, schedule_speeds
 from .laws import LAWS
+from .runout import WithRunout, runout_terms
 
 HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "adapt_in", "refresh_samples",
                  "effort_weight", "leakage",
                  "sensor_weights", "update_every_samples", "force_limit_n", "rate_limit_n_per_s",
-                 "min_speed_hz", "start_s", "influence", "identification", "fallback")
+                 "min_speed_hz", "start_s", "influence", "identification", "fallback", "runout")
 INFLUENCE_KEYS = ("rel_step", "phase_error_deg", "magnitude_factor")
 IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "min_rel_change", "seed")
 FALLBACK_KEYS = ("mode", "divergence_factor", "poor_residual", "patience", "fade_updates")
@@ -156,6 +159,7 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
                         f"must be a list of distinct integers >= 1 (got {harmonics!r})",
                         fix="e.g. [1] or [1, 2]")
     settings = harmonic_settings(sec, len(sensors))
+    terms = runout_terms(sec, sensors)
     inf = sec.section("influence", {})
     inf.check_keys(INFLUENCE_KEYS)
     rel_step = inf.number("rel_step", DEFAULT_REL_STEP, positive=True, maximum=0.5)
@@ -184,5 +188,6 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
         settings = replace(settings, gain_speeds_rad_s=speeds, gain_values=gains)
     schedule = schedule.perturbed(inf.number("phase_error_deg", 0.0),
                                   inf.number("magnitude_factor", 1.0, positive=True))
-    return HarmonicController(schedule, sample_period_s, settings)
+    block = HarmonicController(schedule, sample_period_s, settings)
+    return WithRunout(block, terms) if terms else block
 
