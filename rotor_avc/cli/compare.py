@@ -4,14 +4,15 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..compare.comparison import compare_bag
+from ..compare.comparison import EXIT_NO_VERDICT, compare_bag
 from ..compare.report import ACCEPTANCE, write_report
 
 NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
         "from the bag's own configuration: 1x response per speed (order tracking), broadband "
         "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv "
-        "and metrics.json. Exit status 1 when a check fails, 2 for an unreadable bag, 3 for a "
+        "and metrics.json. Exit status 1 when a check fails (magnitude, phase, dead channels), 5 "
+        "when nothing could be rated (no verdict, with the reason), 2 for an unreadable bag, 3 for a "
         "recording with missing samples (checked first: stamps contiguous at the run's period, "
         "counts equal across the plant's topics, published = recorded).")
 EXAMPLE = "rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3"
@@ -28,7 +29,7 @@ def run(args) -> int:
     comp = compare_bag(args.bag)
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
-    return 0 if comp.passed else 1
+    return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)
 
 
 def report(comp, bag, out: Path) -> dict:
@@ -51,5 +52,6 @@ def report(comp, bag, out: Path) -> dict:
               f"{c.detail}")
     for note in comp.notes:
         print(f"  note: {note}")
-    print(f"{ACCEPTANCE}\n-> {'PASS' if comp.passed else 'FAIL'}; report: {files['index']}")
+    why = f" ({comp.no_verdict_reason})" if comp.no_verdict_reason else ""
+    print(f"{ACCEPTANCE}\n-> {comp.verdict}{why}; report: {files['index']}")
     return files
