@@ -2,11 +2,14 @@
 (2 kHz) passes, and the same bag rewritten message by message with the faults a commissioning
 check must catch fails (sign flips, a one-sample delay, dead channels) or gets no verdict
 (exit status 5: all signals zero, the channels missing); a gap is an incomplete recording
-(exit 3) and a run cut short carries the "incomplete run" note.
+(exit 3) and a run cut short carries the "incomplete run" note. A run with the adaptive harmonic
+controller passes only with its recorded forces driving the model (without them, or with their
+sign flipped, it fails).
 
 The delay cases check the phase against the analytic value of a pure delay: one sample late
 is a phase of ``-360 f T`` degrees on the 1x of that channel (and ``+360 f T`` on an H1 whose
 input is the late one)."""
+import dataclasses
 import json
 
 import numpy as np
@@ -16,7 +19,8 @@ from rotor_avc.bag import BagReader, BagWriter
 from rotor_avc.bag.sequence import EXIT_INCOMPLETE
 from rotor_avc.cli import main
 from rotor_avc.compare.comparison import (EXIT_NO_VERDICT, TOL_BAND_PHASE_RMS_DEG,
-                                          TOL_PHASE_OFF_RESONANCE_DEG, compare_bag)
+                                          TOL_PHASE_OFF_RESONANCE_DEG, compare_bag,
+                                          compare_run)
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import write_run_bag
 from rotor_avc.scenario import scenario_from_config
@@ -232,3 +236,59 @@ def test_a_run_cut_at_53_percent_carries_the_incomplete_run_note(stepped, tmp_pa
     assert f"of the scenario's {round(end_s * RATE_HZ) + 1} samples" in notes[0]
     # what was recorded (the first dwell) is still rated, and agrees
     assert status == 0 and data["one_x"]["speeds_hz"] == [pytest.approx(SPEEDS_HZ[0], rel=1e-3)]
+
+
+class Recording:
+    """The harmonic controller block, keeping every force it answers with."""
+
+    def __init__(self, block):
+        self.block, self.forces = block, []
+
+    def __getattr__(self, name):
+        return getattr(self.block, name)
+
+    def reset(self):
+        self.forces = []
+        self.block.reset()
+
+    def step(self, *args):
+        out = self.block.step(*args)
+        self.forces.append(list(out))
+        return out
+
+
+@pytest.fixture(scope="module")
+def harmonic(tmp_path_factory):
+    """Case 3 plus adaptive harmonic control at 14 Hz, recorded as the ROS graph records it:
+    the harmonic forces on harmonic/forces, the foot controllers' own on actuator_force."""
+    data = load_yaml(find_config("scenario_harmonic_case3_steady"))
+    data["simulation"].update(sample_rate_hz=RATE_HZ, duration_s=4.0)
+    data["harmonic"]["start_s"] = 0.3
+    sc = scenario_from_config(data, "test")
+    block = Recording(sc.harmonic())
+    ts = sc.run(progress=False, harmonic=block)
+    forces = np.array(block.forces)
+    for i, act in enumerate(block.actuator_ids):
+        name = f"{act}_f{sc.machine.plant.actuator(act).axis}"
+        ts.channels[f"harmonic_{name}"] = forces[:, i]
+        ts.channels[f"actuator_{name}"] = ts.channels[f"actuator_{name}"] - forces[:, i]
+    return write_run_bag(tmp_path_factory.mktemp("harmonic") / "harmonic.mcap", sc, ts)
+
+
+def test_the_harmonic_controllers_forces_drive_the_model(harmonic):
+    comp = compare_bag(harmonic)
+    assert comp.verdict == "PASS"
+    one = comp.one_x
+    inputs = [ch for ch in one.measured if ch.startswith("harmonic_")]
+    assert inputs == ["harmonic_DL_fz", "harmonic_DR_fz", "harmonic_NL_fz"]
+    assert all("skipped" in one.channels["sampled"][ch] for ch in inputs)  # reported, not rated
+    assert all(np.abs(one.measured[ch]).min() > 0 for ch in inputs)
+    checked = {ch: c for ch, c in one.channels["sampled"].items() if c.get("checked_points")}
+    assert len(checked) >= 8 and {"bearing_D_vy", "foundation_DL_vz"} <= set(checked)
+    # without the harmonic forces the same run is not described by the feedback loop alone,
+    # nor with their sign flipped
+    run = comp.run
+    bare = {ch: v for ch, v in run.channels.items() if ch not in inputs}
+    assert compare_run(dataclasses.replace(run, channels=bare)).verdict == "FAIL"
+    flipped = {**run.channels, **{ch: -run.channels[ch] for ch in inputs}}
+    assert compare_run(dataclasses.replace(run, channels=flipped)).verdict == "FAIL"

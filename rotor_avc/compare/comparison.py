@@ -12,7 +12,11 @@ of :data:`RUNUP_REVOLUTIONS` revolutions (quasi-stationary). Channels: the plant
 (bearing-housing and foundation velocities), the foot accelerations and the controllers' forces.
 With several excitations the measured 1x is their superposition, compared with
 ``sum_j G_j(Omega) u_j`` (the run's complex amplitudes ``u_j``); with one, both are divided by
-it (response per unit unbalance, as the papers plot). Models at the measured speeds: the
+it (response per unit unbalance, as the papers plot). A run with the adaptive harmonic
+controller (channels ``harmonic_<id>_f<axis>``, its forces added to the feedback forces) is
+compared with ``sum_j G_j u_j + sum_a T_a(Omega) F_a``: its forces' measured 1x ``F_a`` drive
+the closed-loop transfer ``T_a`` from actuator ``a`` (:mod:`rotor_avc.analysis.transfer`, the
+same force path as a test force); the forces themselves are inputs, reported, not rated. Models at the measured speeds: the
 continuous loop (:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
 sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
 lockstep run reproduces), the foot accelerations added as outputs of the plant.
@@ -90,6 +94,8 @@ TOL_PHASE_AT_RESONANCE_DEG = 15.0
 TOL_BAND_PHASE_RMS_DEG = 5.0
 #: a channel whose 1x is this far below the model at every checked point is dead
 DEAD_DB = 120.0
+#: channel prefix of the harmonic controller's forces (rotor_avc.compare.recorded_run)
+HARMONIC = "harmonic_"
 #: exit status of ``rotor-avc compare`` when nothing could be rated (0 pass, 1 fail)
 EXIT_NO_VERDICT = 5
 FLOOR_DB = 40.0
@@ -207,10 +213,30 @@ def _unbalance_models(run, loops, speeds, u_ref, channels) -> dict[str, dict[str
 
 # -- 1x -------------------------------------------------------------------------------------------
 def one_x_channels(run: RecordedRun) -> list[str]:
+    """The responses the models describe, then the harmonic controller's forces (inputs)."""
     plant = run.machine.plant
     names = [o.name for o in plant.outputs] + [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [f"actuator_{a.id}_f{a.axis}" for a in plant.actuators]
+    names += [f"{HARMONIC}{a.id}_f{a.axis}" for a in plant.actuators]
     return [n for n in names if n in run.channels]
+
+
+def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
+    """``sum_a T_a(Omega) F_a`` per model and channel: the response to the harmonic controller's
+    forces (``inputs``: channel -> measured 1x per speed, per unit ``u_ref``)."""
+    w_F = np.broadcast_to(run.scenario.damping.w_F(run.machine.plant, speeds), speeds.shape)
+    transfer = {"continuous": transfer_frf, "sampled": sampled_transfer_frf}
+    out = {}
+    for name, loop in loops.items():
+        out[name] = {ch: np.zeros(speeds.shape, complex) for ch in channels}
+        for k, speed in enumerate(speeds):
+            for ch, force in inputs.items():
+                act = ch[len(HARMONIC):].rsplit("_f", 1)[0]
+                frf = transfer[name](loop, float(speed), speed / (2 * np.pi), act, channels,
+                                     float(w_F[k]))
+                for c in channels:
+                    out[name][c][k] += frf.responses[c][0] * force[k]
+    return out
 
 
 def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
@@ -268,10 +294,21 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
     measured = {ch: track.phasors[ch][order] for ch in channels}
     drift = ({ch: track.drift[ch][order] for ch in channels} if method == "stepped-speed dwells"
              else {})
-    model = _unbalance_models(run, loops, speeds, u_ref, channels)
+    inputs = {ch: measured[ch] for ch in channels if ch.startswith(HARMONIC)}
+    outputs = [ch for ch in channels if ch not in inputs]
+    model = _unbalance_models(run, loops, speeds, u_ref, outputs)
     dense_speeds = {m: _dense_speeds(run, speeds, m) for m in loops}
-    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, channels)[m]
+    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, outputs)[m]
              for m in loops}
+    if inputs:
+        driven = _harmonic_models(run, loops, speeds, inputs, outputs)
+        for m in loops:
+            for ch in outputs:
+                model[m][ch] = model[m][ch] + driven[m][ch]
+            model[m].update(inputs)
+            dense[m].update({ch: np.interp(dense_speeds[m], speeds, v.real)
+                             + 1j * np.interp(dense_speeds[m], speeds, v.imag)
+                             for ch, v in inputs.items()})
     one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense,
                drift=drift)
     _one_x_metrics(one)
@@ -279,13 +316,21 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
 
 
 def _one_x_metrics(one: OneX) -> None:
+    """Errors per channel and point. With the harmonic controller's forces driving the model,
+    its dense curve (the feedback loop alone) does not describe the run: the floor is taken
+    from the model at the measured points and no resonance is looked for."""
     f_meas = one.speed_rad_s / (2 * np.pi)
+    driven = any(ch.startswith(HARMONIC) for ch in one.measured)
     for m in one.model:
         f_dense = one.dense_speed_rad_s[m] / (2 * np.pi)
         one.channels[m] = {}
         for ch, meas in one.measured.items():
+            if ch.startswith(HARMONIC):
+                one.channels[m][ch] = {"skipped": "an input: the harmonic controller's force, "
+                                                  "whose measured 1x drives the model"}
+                continue
             dense, mod = one.dense[m][ch], one.model[m][ch]
-            peak = float(np.abs(dense).max())
+            peak = float(np.abs(mod if driven else dense).max())
             if peak == 0.0 or not np.all(np.isfinite(dense)):
                 one.channels[m][ch] = {"skipped": "the model's response is zero"}
                 continue
@@ -294,8 +339,8 @@ def _one_x_metrics(one: OneX) -> None:
             dead = bool(valid.any()) and bool(
                 np.all(np.abs(meas[valid]) <= np.abs(mod[valid]) * 10 ** (-DEAD_DB / 20)))
             valid &= ~unsettled & (not dead)
-            peaks = [] if dead else [p for p in model_peaks(f_dense, dense)
-                                     if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
+            peaks = [] if dead or driven else [p for p in model_peaks(f_dense, dense)
+                                               if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
             at = np.zeros(f_meas.shape, bool)
             for p in peaks:
                 at |= (f_meas >= p["band_hz"][0]) & (f_meas <= p["band_hz"][1])
@@ -510,6 +555,10 @@ def compare_run(run: RecordedRun) -> Comparison:
                      "actuator forces) is in the recording: no 1x response to compare")
     elif one is None:
         notes.append("the run has no unbalance: no 1x response to compare")
+    elif any(ch.startswith(HARMONIC) for ch in one.measured):
+        notes.append("the harmonic controller's forces (harmonic/forces) drive the models with "
+                     "their measured 1x; no resonance check (the models over speed are the "
+                     "feedback loop alone)")
     bbs = compare_broadband(run, loops)
     if run.test_force is not None and not bbs:
         notes.append(f"the run's test force has no constant-speed dwell of "

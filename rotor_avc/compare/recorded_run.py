@@ -10,6 +10,8 @@ From the bag (rotor_avc.bag.topics; the namespace is found from ``.../rotor/join
 * ``rotor/joint_state``: time, shaft angle (``position[0]``), speed (``velocity[0]``);
 * ``plant/observables``: every labelled measurement (foot signals, plant outputs);
 * ``foot/<id>/actuator_force``: the controller's force, channel ``actuator_<id>_f<axis>``;
+* ``harmonic/forces`` (a run with the adaptive harmonic controller, rotor_avc.nodes.harmonic_controller):
+  its forces, added by the plant to the feedback forces, channel ``harmonic_<id>_f<axis>``;
 * ``plant/test_signal``: the broadband test force ``d_k`` when the run had one; a bag without the
   topic (a plant that did not publish it) gets it regenerated from the configuration, which fixes
   it sample by sample (rotor_avc.sim.broadband).
@@ -86,6 +88,9 @@ def read_run(path) -> RecordedRun:
         for name, (topic, _) in forces.items():
             if topic in bag.topics and bag.topics[topic].count:
                 topics[name] = topic
+        harmonic_topic = f"{ns}/harmonic/forces"
+        if harmonic_topic in bag.topics and bag.topics[harmonic_topic].count:
+            topics["harmonic"] = harmonic_topic
         test_topic = f"{ns}/plant/test_signal"
         if scenario.test_force is not None and test_topic in bag.topics:
             topics["test"] = test_topic
@@ -114,6 +119,9 @@ def read_run(path) -> RecordedRun:
     for name, (_, field_name) in forces.items():
         if name in topics:
             channels[name] = pick(name, field_name)
+    if "harmonic" in topics:
+        channels.update({f"harmonic_{label}": pick("harmonic", label)
+                         for label in series["harmonic"].labels if label != "time_s"})
     test, source = None, ""
     if "test" in topics:
         test, source = pick("test", scenario.test_force.channel), f"recorded ({test_topic})"
