@@ -21,6 +21,7 @@ from rotor_avc.cli import main
 from rotor_avc.compare.comparison import (EXIT_NO_VERDICT, TOL_BAND_PHASE_RMS_DEG,
                                           TOL_PHASE_OFF_RESONANCE_DEG, compare_bag,
                                           compare_run)
+from rotor_avc.compare.recorded_run import read_run
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import write_run_bag
 from rotor_avc.scenario import scenario_from_config
@@ -287,7 +288,7 @@ def test_the_harmonic_controllers_forces_drive_the_model(harmonic):
     assert len(checked) >= 8 and {"bearing_D_vy", "foundation_DL_vz"} <= set(checked)
     # without the harmonic forces the same run is not described by the feedback loop alone,
     # nor with their sign flipped
-    run = comp.run
+    run = read_run(harmonic)
     bare = {ch: v for ch, v in run.channels.items() if ch not in inputs}
     assert compare_run(dataclasses.replace(run, channels=bare)).verdict == "FAIL"
     flipped = {**run.channels, **{ch: -run.channels[ch] for ch in inputs}}

@@ -23,10 +23,13 @@ def add_arguments(p) -> None:
                                           "configuration (rotor-avc simulate --out, recorder)")
     p.add_argument("--out", type=Path, default=None,
                    help="report folder (created; default: out/compare_<bag name>)")
+    p.add_argument("--in-memory", action="store_true",
+                   help="read the whole bag into memory first instead of streaming it dwell by "
+                        "dwell (same result; memory grows with the recording)")
 
 
 def run(args) -> int:
-    comp = compare_bag(args.bag)
+    comp = compare_bag(args.bag, in_memory=args.in_memory)
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
     return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)

@@ -80,7 +80,8 @@ from ..closed_loop.loop import ClosedLoop
 from ..closed_loop.frf import unbalance_frf
 from ..analysis.frf_estimate import FrfEstimate, estimate_frf
 from ..analysis.poles import closed_loop_poles
-from .recorded_run import RecordedRun, read_run
+from .bag_source import BagSource
+from .recorded_run import MAX_DWELL_SAMPLES, RecordedRun, read_run
 from ..analysis.resonance_peaks import measured_resonance, model_peaks
 from ..analysis.sampled_loop import SampledLoop
 from ..analysis.transfer import TransferFrf, sampled_transfer_frf, transfer_frf
@@ -218,7 +219,7 @@ def one_x_channels(run: RecordedRun) -> list[str]:
     names = [o.name for o in plant.outputs] + [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [f"actuator_{a.id}_f{a.axis}" for a in plant.actuators]
     names += [f"{HARMONIC}{a.id}_f{a.axis}" for a in plant.actuators]
-    return [n for n in names if n in run.channels]
+    return [n for n in names if n in run.channel_names]
 
 
 def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
@@ -241,14 +242,24 @@ def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
 
 def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
     """Order tracking of :func:`one_x_channels`: ``(OrderTrack, method, settings)``."""
-    signals = {n: run.channels[n] for n in one_x_channels(run)}
-    t, theta, w = run.time_s, run.angle_rad, run.speed_rad_s
-    try:
-        track = order_tracking.stepped_speed(t, theta, w, signals, u_ref, settle_fraction=0.5)
-        return track, "stepped-speed dwells", {"settle_fraction": 0.5, "min_revolutions": 4,
-                                               "window": "rectangular, whole revolutions"}
-    except ModelError:
-        pass
+    names = one_x_channels(run)
+    tracks = []
+    for d in run.dwells():                     # from the start of each dwell's second half
+        cut = slice(d.settle_start, None)
+        try:
+            tracks.append(order_tracking.stepped_speed(
+                d.time_s[cut], d.angle_rad[cut], d.speed_rad_s[cut],
+                {n: d.channels[n][cut] for n in names}, u_ref, settle_fraction=0.0))
+        except ModelError:
+            continue
+    if tracks:
+        return order_tracking.concatenate(tracks), "stepped-speed dwells", {
+            "settle_fraction": 0.5, "min_revolutions": 4,
+            "window": "rectangular, whole revolutions",
+            "max_samples_per_dwell": MAX_DWELL_SAMPLES}
+    whole = run.whole()
+    signals = {n: whole.channels[n] for n in names}
+    t, theta, w = whole.time_s, whole.angle_rad, whole.speed_rad_s
     turning = np.flatnonzero(w > 0)
     if turning.size < 3:
         raise ModelError("order tracking: the rotor never turns in this run")
@@ -424,25 +435,26 @@ def broadband_outputs(run: RecordedRun) -> list[str]:
     plant = run.machine.plant
     names = [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [o.name for o in plant.outputs if o.name.startswith("bearing_")]
-    return [n for n in names if n in run.channels]
+    return [n for n in names if n in run.channel_names]
 
 
 def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
     """``(speed_rad_s, H1/H2 estimate)`` per constant-speed dwell long enough, from the test force
     to :func:`broadband_outputs`."""
-    if run.test_force is None:
+    if not run.has_test_force:
         return []
     outputs = broadband_outputs(run)
-    Y = np.column_stack([run.channels[n] for n in outputs])
     T = run.sample_period_s
     out = []
-    for a, b in order_tracking.dwells(run.speed_rad_s):
-        if b - a < MIN_BROADBAND_SAMPLES or run.speed_rad_s[a] <= 0:
+    for d in run.dwells():
+        t = d.time_s
+        if t.size < MIN_BROADBAND_SAMPLES:
             continue
-        if not np.allclose(np.diff(run.time_s[a:b]), T, rtol=1e-6, atol=1e-9):
-            raise ModelError(f"{run.path}: samples are missing between {run.time_s[a]:g} and "
-                             f"{run.time_s[b - 1]:g} s; a broadband estimate needs them all")
-        out.append((float(run.speed_rad_s[a]), estimate_frf(run.test_force[a:b], Y[a:b], 1 / T)))
+        if not np.allclose(np.diff(t), T, rtol=1e-6, atol=1e-9):
+            raise ModelError(f"{run.path}: samples are missing between {t[0]:g} and "
+                             f"{t[-1]:g} s; a broadband estimate needs them all")
+        Y = np.column_stack([d.channels[n] for n in outputs])
+        out.append((float(d.speed_rad_s[0]), estimate_frf(d.test_force, Y, 1 / T)))
     return out
 
 
@@ -543,13 +555,16 @@ def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
 
 # -- all of it ------------------------------------------------------------------------------------
 def compare_run(run: RecordedRun) -> Comparison:
-    """The comparison of a recorded run (see the module docstring)."""
+    """The comparison of a recorded run (see the module docstring): ``run`` a
+    :class:`RecordedRun` or any source of the same metadata and dwells
+    (:class:`~rotor_avc.compare.bag_source.BagSource`)."""
     if run.scenario.use_balancer:
         raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
                          "the fixed-unbalance models do not describe; compare a run without it")
     loops = _loops(run)
-    notes = list(run.notes)
     one = compare_one_x(run, loops) if one_x_channels(run) else None
+    bbs = compare_broadband(run, loops)
+    notes = list(run.notes)                   # after the passes over the run (a streamed bag)
     if not one_x_channels(run):
         notes.append("no channel the models describe (plant outputs, foot accelerations, "
                      "actuator forces) is in the recording: no 1x response to compare")
@@ -559,13 +574,12 @@ def compare_run(run: RecordedRun) -> Comparison:
         notes.append("the harmonic controller's forces (harmonic/forces) drive the models with "
                      "their measured 1x; no resonance check (the models over speed are the "
                      "feedback loop alone)")
-    bbs = compare_broadband(run, loops)
-    if run.test_force is not None and not bbs:
+    if run.has_test_force and not bbs:
         notes.append(f"the run's test force has no constant-speed dwell of "
                      f"{MIN_BROADBAND_SAMPLES} samples: no broadband FRF")
-    elif run.test_force is not None:
+    elif run.has_test_force:
         notes.append(f"test force: {run.test_source}")
-    rate_one_x = run.test_force is None
+    rate_one_x = not run.has_test_force
     if one is not None and not rate_one_x:
         notes.append("1x checks not rated: the broadband test force's response at the rotational "
                      "frequency adds to the 1x phasors (compare a run without a test force)")
@@ -591,6 +605,7 @@ def compare_run(run: RecordedRun) -> Comparison:
     return Comparison(run, one, bbs, poles, checks, reference, notes, reason)
 
 
-def compare_bag(path) -> Comparison:
-    """Read a bag and compare it (:func:`read_run`, :func:`compare_run`)."""
-    return compare_run(read_run(path))
+def compare_bag(path, in_memory: bool = False) -> Comparison:
+    """Compare a bag, streamed (:class:`~rotor_avc.compare.bag_source.BagSource`) or read into
+    memory first (:func:`read_run`)."""
+    return compare_run(read_run(path) if in_memory else BagSource(path))

@@ -1,0 +1,158 @@
+"""A bag read in one streaming pass: the run source ``rotor-avc compare`` uses by default.
+
+The same run as :func:`rotor_avc.compare.recorded_run.read_run` gives (scenario, sequence check,
+topics and sample matching are shared with it), but read :data:`BLOCK_S` seconds of log time at a
+time, every topic's messages of a block decoded at once (fixed-size CDR rows, as this package's
+bags hold), and cut into constant-speed dwells as they come; only the current dwell's last
+:data:`~rotor_avc.compare.recorded_run.MAX_DWELL_SAMPLES` samples are kept. So the memory of a
+comparison of stepped or constant-speed runs is bounded by one dwell's tail and one block,
+whatever the recording's length (the sequence check before it still holds every message's log
+time, 8 bytes each). A run without dwells (a run-up) is analysed over its whole record:
+:meth:`BagSource.whole` reads it into memory.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from ..bag import BagError, BagReader
+from ..bag.reader import TopicSeries
+from ..bag.topics import labels_of
+from .recorded_run import (MAX_DWELL_SAMPLES, dropped_note, matched, open_run, read_run, signals,
+                           tail_dwell, test_source, too_short)
+
+#: log time read and decoded at once (s)
+BLOCK_S = 1.0
+#: consecutive speeds differing by more than this (relative) start a new dwell
+#: (rotor_avc.analysis.order_tracking.dwells)
+REL_TOL = 1e-6
+
+
+def _block_series(bag: BagReader, topics: dict, start_ns: int, end_ns: int) -> dict | None:
+    """key -> TopicSeries of the messages logged in ``[start_ns, end_ns)`` (None: a topic has
+    none there)."""
+    data, times = defaultdict(list), defaultdict(list)
+    for m in bag.raw_messages(list(topics.values()), start_ns, end_ns):
+        data[m.topic].append(m.data)
+        times[m.topic].append(m.time_ns)
+    out = {}
+    for key, topic in topics.items():
+        rows = data.get(topic)
+        if not rows:
+            return None
+        codec = bag.codec(topic)
+        layout = codec.layout(bytes(rows[0]))
+        if len({len(r) for r in rows}) == 1:
+            array = np.frombuffer(b"".join(rows), np.uint8).reshape(len(rows), -1)
+            if layout.matches(array):
+                out[key] = TopicSeries(topic, codec.type_name, np.array(times[topic], np.int64),
+                                       layout.decode(array), labels_of(codec.decode(rows[0])))
+                continue
+        raise BagError(bag.path, f"topic {topic}: messages of different layouts between "
+                       f"{start_ns * 1e-9:g} and {end_ns * 1e-9:g} s; the streaming reader "
+                       "decodes fixed-size messages", fix="compare it with --in-memory")
+    return out
+
+
+class BagSource:
+    """A bag as the comparison consumes it (the metadata and dwells of
+    :class:`~rotor_avc.compare.recorded_run.RecordedRun`), streamed."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        with BagReader(self.path, require_config=True, require_messages=True) as bag:
+            self.opened = open_run(bag, self.path)
+            self.time_range_ns = bag.time_range_ns
+            first = None
+            start = self.time_range_ns[0]
+            while first is None and start <= self.time_range_ns[1]:
+                first = _block_series(bag, self.opened.topics, start,
+                                      start + int(BLOCK_S * 1e9))
+                start += int(BLOCK_S * 1e9)
+        if first is None:
+            raise too_short(self.opened)
+        common, pick, _ = matched(self.opened, first)
+        channels, _ = signals(self.opened, first, common, pick)
+        self.channel_names = list(channels)
+        self.scenario, self.config = self.opened.scenario, self.opened.config
+        self.namespace = self.opened.namespace.strip("/")
+        self.test_source = test_source(self.opened)
+        self.dropped = 0
+
+    sample_period_s = property(lambda self: self.scenario.sample_period_s)
+    machine = property(lambda self: self.scenario.machine)
+    has_test_force = property(lambda self: self.scenario.test_force is not None)
+
+    @property
+    def notes(self) -> list[str]:
+        """The bag's notes (after a pass: with the samples dropped in it)."""
+        return self.opened.notes + ([dropped_note(self.dropped)] if self.dropped else [])
+
+    def whole(self):
+        return read_run(self.path)
+
+    def _blocks(self):
+        """``(time_s, angle_rad, speed_rad_s, channels, test_force)`` per block, in order."""
+        step = int(BLOCK_S * 1e9)
+        self.dropped, matched_samples = 0, 0
+        with BagReader(self.path) as bag:
+            for start in range(self.time_range_ns[0], self.time_range_ns[1] + 1, step):
+                series = _block_series(bag, self.opened.topics, start, start + step)
+                if series is None:
+                    continue
+                common, pick, dropped = matched(self.opened, series)
+                self.dropped += dropped
+                matched_samples += common.size
+                if common.size:
+                    channels, test = signals(self.opened, series, common, pick)
+                    yield (common * 1e-9, pick("joint", "position[0]"),
+                           pick("joint", "velocity[0]"), channels, test)
+        if matched_samples < 3:
+            raise too_short(self.opened)
+
+    def dwells(self):
+        """The constant-speed dwells at positive speed, in time order, one at a time."""
+        pieces, total, last = [], 0, None
+        for block in self._blocks():
+            w = block[2]
+            prev = np.concatenate([[w[0] if last is None else last], w[:-1]])
+            jumps = np.abs(w - prev) > REL_TOL * np.maximum(np.abs(w), 1e-3)
+            for a, b in zip(*_runs(jumps, w.size)):
+                if jumps[a] and pieces:
+                    yield from _closed(pieces, total)
+                    pieces, total = [], 0
+                pieces.append(tuple(_cut(x, a, b) for x in block))
+                total += b - a
+                while len(pieces) > 1 and sum(len(p[0]) for p in pieces[1:]) >= MAX_DWELL_SAMPLES:
+                    pieces.pop(0)
+            last = w[-1]
+        if pieces:
+            yield from _closed(pieces, total)
+
+
+def _runs(jumps: np.ndarray, n: int):
+    """Starts and ends of the ranges between jumps (a jump starts a range)."""
+    starts = np.concatenate([[0], np.flatnonzero(jumps[1:]) + 1])
+    return starts, np.concatenate([starts[1:], [n]])
+
+
+def _cut(x, a, b):
+    if x is None:
+        return None
+    if isinstance(x, dict):
+        return {k: v[a:b] for k, v in x.items()}
+    return x[a:b]
+
+
+def _closed(pieces, total: int):
+    """The finished dwell (if it has more than one sample at positive speed)."""
+    if total < 2:
+        return
+    t, angle, speed = (np.concatenate([p[i] for p in pieces]) for i in range(3))
+    channels = {k: np.concatenate([p[3][k] for p in pieces]) for k in pieces[0][3]}
+    test = None if pieces[0][4] is None else np.concatenate([p[4] for p in pieces])
+    dwell = tail_dwell(t, angle, speed, channels, test, total)
+    if np.mean(dwell.speed_rad_s) > 0:
+        yield dwell
