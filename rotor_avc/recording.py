@@ -29,6 +29,13 @@ from .bag.writer import write_bag
 
 def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
     """Write the run ``ts`` of ``scenario`` (rotor_avc.scenario.Scenario) to ``path``."""
+    write_bag(path, run_streams(scenario, ts, namespace), scenario.run_config())
+    return Path(path)
+
+
+def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
+    """The bag streams of the run ``ts`` (a whole run or consecutive parts of one, each written
+    with :meth:`rotor_avc.bag.writer.BagWriter.write_streams`)."""
     plant = scenario.machine.plant
     t = ts.time_s
     feedback = {foot: c.feedback for foot, c in scenario.machine.controllers.items()}
@@ -59,5 +66,4 @@ def write_run_bag(path, scenario, ts, namespace: str = T.NAMESPACE) -> Path:
     if test is not None:
         streams.append(T.labelled_array("plant/test_signal", t, ["time_s", test.channel],
                                         np.column_stack([t, ts[test.channel]]), namespace))
-    write_bag(path, streams, scenario.run_config())
-    return Path(path)
+    return streams

@@ -138,7 +138,8 @@ def concatenate(tracks: list[OrderTrack]) -> OrderTrack:
     return OrderTrack(
         np.concatenate([t.speed_rad_s for t in tracks]), np.concatenate([t.time_s for t in tracks]),
         {n: np.concatenate([t.phasors[n] for t in tracks]) for n in first.phasors},
-        np.concatenate([t.revolutions for t in tracks]), np.concatenate([t.samples for t in tracks]),
+        np.concatenate([t.revolutions for t in tracks]),
+        np.concatenate([t.samples for t in tracks]),
         first.unbalance, {n: np.concatenate([t.drift[n] for t in tracks]) for n in first.drift})
 
 

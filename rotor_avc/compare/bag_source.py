@@ -1,9 +1,10 @@
 """A bag read in one streaming pass: the run source ``rotor-avc compare`` uses by default.
 
 The same run as :func:`rotor_avc.compare.recorded_run.read_run` gives (scenario, sequence check,
-topics and sample matching are shared with it), but read :data:`BLOCK_S` seconds of log time at a
-time, every topic's messages of a block decoded at once (fixed-size CDR rows, as this package's
-bags hold), and cut into constant-speed dwells as they come; only the current dwell's last
+topics and sample matching are shared with it), but read chunk by chunk through the message
+indexes (:meth:`rotor_avc.bag.reader.BagReader.chunk_rows`), about :data:`BLOCK_S` seconds of
+log time decoded at once per topic (fixed-size CDR rows, as this package's bags hold), and cut
+into constant-speed dwells as they come; only the current dwell's last
 :data:`~rotor_avc.compare.recorded_run.MAX_DWELL_SAMPLES` samples are kept. So the memory of a
 comparison of stepped or constant-speed runs is bounded by one dwell's tail and one block,
 whatever the recording's length (the sequence check before it still holds every message's log
@@ -12,7 +13,6 @@ time, 8 bytes each). A run without dwells (a run-up) is analysed over its whole 
 """
 from __future__ import annotations
 
-from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
@@ -30,30 +30,54 @@ BLOCK_S = 1.0
 REL_TOL = 1e-6
 
 
-def _block_series(bag: BagReader, topics: dict, start_ns: int, end_ns: int) -> dict | None:
-    """key -> TopicSeries of the messages logged in ``[start_ns, end_ns)`` (None: a topic has
-    none there)."""
-    data, times = defaultdict(list), defaultdict(list)
-    for m in bag.raw_messages(list(topics.values()), start_ns, end_ns):
-        data[m.topic].append(m.data)
-        times[m.topic].append(m.time_ns)
-    out = {}
-    for key, topic in topics.items():
-        rows = data.get(topic)
-        if not rows:
-            return None
-        codec = bag.codec(topic)
-        layout = codec.layout(bytes(rows[0]))
-        if len({len(r) for r in rows}) == 1:
-            array = np.frombuffer(b"".join(rows), np.uint8).reshape(len(rows), -1)
-            if layout.matches(array):
-                out[key] = TopicSeries(topic, codec.type_name, np.array(times[topic], np.int64),
-                                       layout.decode(array), labels_of(codec.decode(rows[0])))
-                continue
-        raise BagError(bag.path, f"topic {topic}: messages of different layouts between "
-                       f"{start_ns * 1e-9:g} and {end_ns * 1e-9:g} s; the streaming reader "
-                       "decodes fixed-size messages", fix="compare it with --in-memory")
-    return out
+def _decoded(bag: BagReader, topic: str, times: np.ndarray, rows: np.ndarray) -> TopicSeries:
+    """A block of one topic's fixed-size CDR rows as a TopicSeries (in log-time order)."""
+    codec = bag.codec(topic)
+    layout = codec.layout(rows[0].tobytes())
+    if not layout.matches(rows):
+        raise _not_streamable(bag, topic)
+    order = np.argsort(times, kind="stable")
+    return TopicSeries(topic, codec.type_name, times[order], layout.decode(rows[order]),
+                       labels_of(codec.decode(rows[0].tobytes())))
+
+
+def _not_streamable(bag: BagReader, topic: str) -> BagError:
+    return BagError(bag.path, f"topic {topic}: messages without an index or of different "
+                    "layouts; the streaming reader decodes indexed fixed-size messages",
+                    fix="compare it with --in-memory")
+
+
+def _blocks(bag: BagReader, topics: dict):
+    """key -> TopicSeries of every topic, for consecutive spans of about :data:`BLOCK_S` of
+    log time (chunk by chunk, each chunk decompressed once; a span where a topic has no
+    message is skipped)."""
+    if not bag.has_message_indexes:
+        raise _not_streamable(bag, next(iter(topics.values())))
+    keys = {topic: key for key, topic in topics.items()}
+    pending = {topic: [] for topic in keys}
+    span_start = None
+    for later, chunk in bag.chunk_rows(list(keys)):
+        for topic, (times, rows) in chunk.items():
+            if rows is None:
+                raise _not_streamable(bag, topic)
+            pending[topic].append((times, rows))
+            first = int(times.min())
+            span_start = first if span_start is None else min(span_start, first)
+        if span_start is None or (later is not None and later - span_start < BLOCK_S * 1e9):
+            continue
+        cut = np.inf if later is None else later
+        block, rest = {}, {}
+        for topic, parts in pending.items():
+            times = np.concatenate([t for t, _ in parts]) if parts else np.zeros(0, np.int64)
+            rows = np.concatenate([r for _, r in parts]) if parts else None
+            done = times < cut
+            rest[topic] = [(times[~done], rows[~done])] if parts and (~done).any() else []
+            if done.any():
+                block[keys[topic]] = _decoded(bag, topic, times[done], rows[done])
+        pending = rest
+        span_start = min((int(t.min()) for p in rest.values() for t, _ in p), default=None)
+        if len(block) == len(topics):
+            yield block
 
 
 class BagSource:
@@ -64,13 +88,7 @@ class BagSource:
         self.path = Path(path)
         with BagReader(self.path, require_config=True, require_messages=True) as bag:
             self.opened = open_run(bag, self.path)
-            self.time_range_ns = bag.time_range_ns
-            first = None
-            start = self.time_range_ns[0]
-            while first is None and start <= self.time_range_ns[1]:
-                first = _block_series(bag, self.opened.topics, start,
-                                      start + int(BLOCK_S * 1e9))
-                start += int(BLOCK_S * 1e9)
+            first = next(_blocks(bag, self.opened.topics), None)
         if first is None:
             raise too_short(self.opened)
         common, pick, _ = matched(self.opened, first)
@@ -95,13 +113,9 @@ class BagSource:
 
     def _blocks(self):
         """``(time_s, angle_rad, speed_rad_s, channels, test_force)`` per block, in order."""
-        step = int(BLOCK_S * 1e9)
         self.dropped, matched_samples = 0, 0
         with BagReader(self.path) as bag:
-            for start in range(self.time_range_ns[0], self.time_range_ns[1] + 1, step):
-                series = _block_series(bag, self.opened.topics, start, start + step)
-                if series is None:
-                    continue
+            for series in _blocks(bag, self.opened.topics):
                 common, pick, dropped = matched(self.opened, series)
                 self.dropped += dropped
                 matched_samples += common.size
@@ -125,7 +139,8 @@ class BagSource:
                     pieces, total = [], 0
                 pieces.append(tuple(_cut(x, a, b) for x in block))
                 total += b - a
-                while len(pieces) > 1 and sum(len(p[0]) for p in pieces[1:]) >= MAX_DWELL_SAMPLES:
+                while (len(pieces) > 1
+                       and sum(len(p[0]) for p in pieces[1:]) >= MAX_DWELL_SAMPLES):
                     pieces.pop(0)
             last = w[-1]
         if pieces:

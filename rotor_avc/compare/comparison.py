@@ -16,9 +16,9 @@ it (response per unit unbalance, as the papers plot). A run with the adaptive ha
 controller (channels ``harmonic_<id>_f<axis>``, its forces added to the feedback forces) is
 compared with ``sum_j G_j u_j + sum_a T_a(Omega) F_a``: its forces' measured 1x ``F_a`` drive
 the closed-loop transfer ``T_a`` from actuator ``a`` (:mod:`rotor_avc.analysis.transfer`, the
-same force path as a test force); the forces themselves are inputs, reported, not rated. Models at the measured speeds: the
-continuous loop (:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
-sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
+same force path as a test force); the forces themselves are inputs, reported, not rated.
+Models at the measured speeds: the continuous loop
+(:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
 lockstep run reproduces), the foot accelerations added as outputs of the plant.
 
 **Broadband FRFs.** When the run had a test force (``simulation.test_signal``), H1, H2 and
