@@ -90,14 +90,12 @@ def main() -> int:
                   f"{s['time_s']:.1f} s [{s['verdict']}]"
                   + (f"; in-memory {m['peak_mb']:.0f} MB {m['time_s']:.1f} s [{m['verdict']}]"
                      if m else "") + f"; streamed/in-memory: {ratio}", flush=True)
-    first, last = rows[0], rows[-1]
-    span = last["length_s"] - first["length_s"]
-    if span > 0:
-        for mode in ("streamed", "in_memory"):
-            if mode in first and mode in last:
-                slope = (last[mode]["peak_mb"] - first[mode]["peak_mb"]) / span
-                print(f"{mode}: {slope:.3f} MB of peak memory per second of run "
-                      f"({first['length_s']:g} to {last['length_s']:g} s)")
+    for first, last in zip(rows[:-1], rows[1:]):
+        growth = [f"{mode} {(last[mode]['peak_mb'] - first[mode]['peak_mb']) / span:.3f}"
+                  for mode in ("streamed", "in_memory") if mode in first and mode in last
+                  for span in [last["length_s"] - first["length_s"]]]
+        print(f"peak memory growth from {first['length_s']:g} to {last['length_s']:g} s of run, "
+              f"MB per second of run: {', '.join(growth)}")
     return 0
 
 

@@ -13,8 +13,8 @@ HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-
         "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv "
         "and metrics.json. Exit status 1 when a check fails (magnitude, phase, dead channels), "
         "5 when nothing could be rated (no verdict, with the reason), 2 for an unreadable bag, "
-        "3 for a recording with missing samples (checked first: stamps contiguous at the run's period, "
-        "counts equal across the plant's topics, published = recorded).")
+        "3 for a recording with missing samples (checked first: stamps contiguous at the run's "
+        "period, counts equal across the plant's topics, published = recorded).")
 EXAMPLE = "rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3"
 
 
