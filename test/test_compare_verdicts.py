@@ -1,7 +1,7 @@
 """`rotor-avc compare` rates the complex response: a small lockstep bag of seed 000 case 3
 (2 kHz) passes, and the same bag rewritten message by message with the faults a commissioning
 check must catch fails (sign flips, a one-sample delay, dead channels) or gets no verdict
-(exit status 5: all signals zero, the channels missing); a gap is an incomplete recording
+(exit status 5: all signals zero, the channels missing, every point unsettled); a gap is an incomplete recording
 (exit 3) and a run cut short carries the "incomplete run" note. A run with the adaptive harmonic
 controller passes only with its recorded forces driving the model (without them, or with their
 sign flipped, it fails).
@@ -293,3 +293,14 @@ def test_the_harmonic_controllers_forces_drive_the_model(harmonic):
     assert compare_run(dataclasses.replace(run, channels=bare)).verdict == "FAIL"
     flipped = {**run.channels, **{ch: -run.channels[ch] for ch in inputs}}
     assert compare_run(dataclasses.replace(run, channels=flipped)).verdict == "FAIL"
+
+
+def test_every_point_unsettled_is_no_verdict(stepped):
+    """Signals still growing at the end of every dwell: nothing is in steady state to rate."""
+    run = read_run(stepped)
+    growth = (run.time_s / run.time_s[-1]) ** 4
+    growing = {ch: v * growth for ch, v in run.channels.items()}
+    comp = compare_run(dataclasses.replace(run, channels=growing))
+    assert comp.verdict == "NO VERDICT"
+    assert comp.no_verdict_reason.startswith("every 1x point is left out")
+    assert "not in steady state" in comp.no_verdict_reason
