@@ -304,3 +304,12 @@ def test_every_point_unsettled_is_no_verdict(stepped):
     assert comp.verdict == "NO VERDICT"
     assert comp.no_verdict_reason.startswith("every 1x point is left out")
     assert "not in steady state" in comp.no_verdict_reason
+
+
+def test_a_dead_output_of_the_broadband_estimate_fails(broadband):
+    run = read_run(broadband)
+    channels = {**run.channels, "foot_DR_az": np.zeros_like(run.channels["foot_DR_az"])}
+    comp = compare_run(dataclasses.replace(run, channels=channels))
+    dead = next(c for c in comp.checks if c.name == "dead channels")
+    assert comp.verdict == "FAIL" and dead.passed is False and "foot_DR_az" in dead.detail
+    assert comp.broadband[0].channels["sampled"]["foot_DR_az"]["dead"]
