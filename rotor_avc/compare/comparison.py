@@ -43,12 +43,13 @@ sign error (180 degrees) or a delay fails even where the magnitude agrees:
   at every checked point, or an H1 of zero over the test band) where the model has one (0).
 
 Why these tolerances: a lockstep bag of seed 000 case 3 (5 kHz) meets the sampled loop within
-0.07 dB and 0.5 degrees (1x) and 0.09 dB / 0.9 degrees RMS (broadband, 3 s at 20 Hz); the phase tolerances match the
-magnitude ones (0.5 dB is a 6 % vector error, 3.4 degrees; at a resonance a 1 % frequency error
-moves the phase by about 0.01 / zeta rad, 10 degrees at 5 % damping), and they are tight enough for
-a commissioning check: a sign error (180 degrees), a swapped channel or a delay of one sample at
-5 kHz above 70 Hz (5 degrees) fails. A real machine's sensor and amplifier phase lag must be in
-the model (or the run's configuration) before its bag can pass.
+0.07 dB and 0.5 degrees (1x) and 0.09 dB / 0.9 degrees RMS (broadband, 3 s at 20 Hz); the
+phase tolerances match the magnitude ones (0.5 dB is a 6 % vector error, 3.4 degrees; at a
+resonance a 1 % frequency error moves the phase by about 0.01 / zeta rad, 10 degrees at 5 %
+damping), and they are tight enough for a commissioning check: a sign error (180 degrees), a
+swapped channel or a delay of one sample at 5 kHz above 70 Hz (5 degrees) fails. A real
+machine's sensor and amplifier phase lag must be in the model (or the run's configuration)
+before its bag can pass.
 
 The continuous model's values are reported beside them without a verdict, and so are the 1x
 checks of a run with a test force (its response at the rotational frequency is noise to the

@@ -11,7 +11,8 @@ From the bag (rotor_avc.bag.topics; the namespace is found from ``.../rotor/join
 * ``plant/observables``: every labelled measurement (foot signals, plant outputs);
 * ``foot/<id>/actuator_force``: the controller's force, channel ``actuator_<id>_f<axis>``;
 * ``harmonic/forces`` (a run with the adaptive harmonic controller,
-  rotor_avc.nodes.harmonic_controller): its forces, added by the plant to the feedback forces, channel ``harmonic_<id>_f<axis>``;
+  rotor_avc.nodes.harmonic_controller): its forces, added by the plant to the feedback forces,
+  channel ``harmonic_<id>_f<axis>``;
 * ``plant/test_signal``: the broadband test force ``d_k`` when the run had one; a bag without the
   topic (a plant that did not publish it) gets it regenerated from the configuration, which fixes
   it sample by sample (rotor_avc.sim.broadband).
