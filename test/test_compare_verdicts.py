@@ -1,10 +1,10 @@
 """`rotor-avc compare` rates the complex response: a small lockstep bag of seed 000 case 3
 (2 kHz) passes, and the same bag rewritten message by message with the faults a commissioning
 check must catch fails (sign flips, a one-sample delay, dead channels) or gets no verdict
-(exit status 5: all signals zero, the channels missing, every point unsettled); a gap is an incomplete recording
-(exit 3) and a run cut short carries the "incomplete run" note. A run with the adaptive harmonic
-controller passes only with its recorded forces driving the model (without them, or with their
-sign flipped, it fails).
+(exit status 5: all signals zero, the channels missing, every point unsettled); a gap is an
+incomplete recording (exit 3) and a run cut short carries the "incomplete run" note. A run with
+the adaptive harmonic controller passes only with its recorded forces driving the model (without
+them, or with their sign flipped, it fails).
 
 The delay cases check the phase against the analytic value of a pure delay: one sample late
 is a phase of ``-360 f T`` degrees on the 1x of that channel (and ``+360 f T`` on an H1 whose
