@@ -10,6 +10,9 @@ treat a simulated run and a recorded ROS run alike:
 * ``foot/<id>/actuator_force`` of every controlled foot, stamped with the sample it answers;
 * ``plant/observables``: ``time_s`` then the measurement vector (foot signals, outputs);
 * ``balancer/command`` when the run had a balancer;
+* ``harmonic/forces`` when the time series carries the adaptive harmonic controller's forces as
+  channels ``harmonic_<id>_f<axis>`` (labels ``<id>_f<axis>``; ``actuator_<id>_f<axis>`` is then
+  the feedback controller's part alone, as the foot controller publishes it in the ROS graph);
 * ``plant/test_signal`` when the run had a broadband test force (``simulation.test_signal``,
   rotor_avc.sim.broadband): ``time_s`` then ``test_signal_<id>_f<axis>``, the force ``d_k`` (N)
   the plant added to the actuator's commanded force over ``[t_k, t_k+1)``.
@@ -43,7 +46,8 @@ def stream_run_bag(path, scenario, blocks: Iterable, namespace: str = T.NAMESPAC
 
 
 def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
-    """The bag streams (rotor_avc.bag.topics.Stream) of the run, or run block, ``ts``."""
+    """The bag streams of the run ``ts`` (a whole run or consecutive parts of one, each written
+    with :meth:`rotor_avc.bag.writer.BagWriter.write_streams`)."""
     plant = scenario.machine.plant
     t = ts.time_s
     feedback = {foot: c.feedback for foot, c in scenario.machine.controllers.items()}
@@ -56,7 +60,8 @@ def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
         if act.id in feedback:
             streams.append(T.actuator_force(act.id, t, ts[f"actuator_{act.id}_f{act.axis}"],
                                             axis=act.axis, namespace=namespace))
-    names = [n for n in ts.channels if not n.startswith(("actuator_", "balancer_", "test_signal_"))]
+    names = [n for n in ts.channels
+             if not n.startswith(("actuator_", "balancer_", "test_signal_", "harmonic_"))]
     streams.append(T.labelled_array("plant/observables", t, ["time_s"] + names,
                                     np.column_stack([t] + [ts[n] for n in names]), namespace))
     corr = [f"balancer_{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
@@ -64,6 +69,11 @@ def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
         labels = ["time_s"] + [c[len("balancer_"):] for c in corr]
         streams.append(T.labelled_array("balancer/command", t, labels,
                                         np.column_stack([t] + [ts[c] for c in corr]), namespace))
+    harmonic = [n for n in ts.channels if n.startswith("harmonic_")]
+    if harmonic:
+        streams.append(T.labelled_array(
+            "harmonic/forces", t, ["time_s"] + [n[len("harmonic_"):] for n in harmonic],
+            np.column_stack([t] + [ts[n] for n in harmonic]), namespace))
     test = scenario.test_force
     if test is not None:
         streams.append(T.labelled_array("plant/test_signal", t, ["time_s", test.channel],

@@ -17,7 +17,8 @@ and the window mean is subtracted first so that an offset cannot leak in the sam
 * :func:`stepped_speed` -- one phasor per constant-speed dwell (found from the recorded speed),
   over the whole revolutions at the end of the dwell, after a settling time;
 * :func:`run_up` -- one phasor per window of a few revolutions of a run-up/run-down; the result
-  is quasi-stationary: exact only as far as the response follows the sweep.
+  is quasi-stationary: exact only as far as the response follows the sweep;
+* :func:`concatenate` -- the tracks of several records (dwells read one at a time) as one.
 """
 from __future__ import annotations
 
@@ -129,6 +130,17 @@ def _track(t, theta, ys, u, windows) -> OrderTrack:
                       {name: np.array(v, complex) for name, v in phasors.items()},
                       np.array(revs, int), np.array(samples, int), u,
                       {name: np.array(v, float) for name, v in drift.items()})
+
+
+def concatenate(tracks: list[OrderTrack]) -> OrderTrack:
+    """One track of the windows of several (of the same channels and unbalance), in order."""
+    first = tracks[0]
+    return OrderTrack(
+        np.concatenate([t.speed_rad_s for t in tracks]), np.concatenate([t.time_s for t in tracks]),
+        {n: np.concatenate([t.phasors[n] for t in tracks]) for n in first.phasors},
+        np.concatenate([t.revolutions for t in tracks]),
+        np.concatenate([t.samples for t in tracks]),
+        first.unbalance, {n: np.concatenate([t.drift[n] for t in tracks]) for n in first.drift})
 
 
 def dwells(speed_rad_s, rel_tol: float = 1e-6) -> list[tuple[int, int]]:

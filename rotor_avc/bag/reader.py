@@ -305,25 +305,53 @@ class BagReader:
                 if not ci.message_index_offsets:
                     return None, None          # a writer without message indexes
                 continue
-            entries = self._message_index(ci.message_index_offsets[cid])
-            records = self._chunk_records(ci)
-            offsets = entries[:, 1].astype(np.int64)
-            try:
-                length = records[offsets[:, None] + np.arange(1, 9)].copy().view("<u8")[:, 0]
-                size = length.astype(np.int64) - (MESSAGE_HEADER.size - 9)
-                if np.any(size != size[0]) or (blocks and size[0] != blocks[0].shape[1]):
-                    return None, None
-                blocks.append(records[offsets[:, None] + MESSAGE_HEADER.size
-                                      + np.arange(size[0])])
-            except (IndexError, ValueError):
-                raise BagError(self.path, "damaged message index (offsets outside the chunk)",
-                               fix=_RECOVER_FIX) from None
-            times.append(entries[:, 0].astype(np.int64))
+            t, rows = self._chunk_rows(ci, cid, self._chunk_records(ci))
+            if rows is None or (blocks and rows.shape[1] != blocks[0].shape[1]):
+                return None, None
+            times.append(t)
+            blocks.append(rows)
         if not blocks:
             return None, None
         times = np.concatenate(times)
         order = np.argsort(times, kind="stable")
         return times[order], np.concatenate(blocks)[order]
+
+    def _chunk_rows(self, ci, cid: int, records: np.ndarray):
+        """(times, (n, size) payload bytes) of channel ``cid`` in one chunk (rows None: its
+        messages differ in size)."""
+        entries = self._message_index(ci.message_index_offsets[cid])
+        offsets = entries[:, 1].astype(np.int64)
+        try:
+            length = records[offsets[:, None] + np.arange(1, 9)].copy().view("<u8")[:, 0]
+            size = length.astype(np.int64) - (MESSAGE_HEADER.size - 9)
+            if np.any(size != size[0]):
+                return entries[:, 0].astype(np.int64), None
+            rows = records[offsets[:, None] + MESSAGE_HEADER.size + np.arange(size[0])]
+        except (IndexError, ValueError):
+            raise BagError(self.path, "damaged message index (offsets outside the chunk)",
+                           fix=_RECOVER_FIX) from None
+        return entries[:, 0].astype(np.int64), rows
+
+    def chunk_rows(self, topics):
+        """The messages of ``topics`` chunk by chunk, in the order of the chunks' start times:
+        ``(later_ns, {topic: (log times, (n, size) payload bytes)})`` per chunk, ``later_ns``
+        the start time of the next chunk (every message not yet yielded is logged at or after
+        it; None after the last). Rows are None for a topic whose messages in that chunk differ
+        in size. Needs message indexes (:attr:`has_message_indexes`)."""
+        cids = {t: self._channel_id(t) for t in topics}
+        chunks = sorted(self._summary.chunk_indexes, key=lambda c: c.message_start_time)
+        for i, ci in enumerate(chunks):
+            later = chunks[i + 1].message_start_time if i + 1 < len(chunks) else None
+            present = {t: cid for t, cid in cids.items() if cid in ci.message_index_offsets}
+            if not present:
+                yield later, {}
+                continue
+            records = self._chunk_records(ci)
+            yield later, {t: self._chunk_rows(ci, cid, records) for t, cid in present.items()}
+
+    @property
+    def has_message_indexes(self) -> bool:
+        return all(ci.message_index_offsets for ci in self._summary.chunk_indexes)
 
     def _message_index(self, offset: int) -> np.ndarray:
         self._file.seek(offset)

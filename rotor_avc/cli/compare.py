@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..compare.comparison import compare_bag
+from ..compare.comparison import EXIT_NO_VERDICT, compare_bag
 from ..compare.mapped_run import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
@@ -14,14 +14,16 @@ NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
         "from the bag's own configuration: 1x response per speed (order tracking), broadband "
         "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv, "
-        "frf.uff (UFF type 58: measured and model FRFs, coherence, SI units) and metrics.json. Exit status 1 when a check fails, 2 for an unreadable bag, 3 for a "
+        "frf.uff (UFF type 58: measured and model FRFs, coherence, SI units) and metrics.json. "
+        "Exit status 1 when a check fails (magnitude, phase, dead channels), 5 when nothing "
+        "could be rated (no verdict, with the reason), 2 for an unreadable bag, 3 for a "
         "recording with missing samples (checked first: stamps contiguous at the run's period, "
-        "counts equal across the plant's topics, published = recorded). A recording of any machine "
-        "(a .mcap file or a rosbag2 directory, e.g. from `ros2 bag record`) compares with "
-        "--config MACHINE.yaml --map MAP.yaml: the mapping says which topic and field is which "
-        "model signal; the channels are resampled onto the configuration's sample grid and the "
-        "report lists rate, jitter and dropouts per channel, the shaft's pulses and dwells and "
-        "the coherence per output.")
+        "counts equal across the plant's topics, published = recorded), 4 for a corrupted bag. "
+        "A recording of any machine (a .mcap file or a rosbag2 directory, e.g. from `ros2 bag "
+        "record`) compares with --config MACHINE.yaml --map MAP.yaml: the mapping says which "
+        "topic and field is which model signal; the channels are resampled onto the "
+        "configuration's sample grid and the report lists rate, jitter and dropouts per channel, "
+        "the shaft's pulses and dwells and the coherence per output.")
 EXAMPLE = ("rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3\n"
            "  rotor-avc compare recording/ --config machine.yaml --map sensors.yaml --out out/real")
 
@@ -37,6 +39,9 @@ def add_arguments(p) -> None:
                                             "shaft source, unbalance reference (README)")
     p.add_argument("--out", type=output_folder, default=None,
                    help="report folder (created; default: out/compare_<bag name>)")
+    p.add_argument("--in-memory", action="store_true",
+                   help="read the whole bag into memory first instead of streaming it dwell by "
+                        "dwell (same result; memory grows with the recording)")
 
 
 def run(args) -> int:
@@ -44,11 +49,11 @@ def run(args) -> int:
         raise ConfigError("--config/--map", "a mapped comparison needs both",
                           fix="give --config MACHINE.yaml and --map MAP.yaml, or neither for a "
                               "bag this package wrote")
-    comp = (compare_bag(args.bag) if args.map is None
+    comp = (compare_bag(args.bag, in_memory=args.in_memory) if args.map is None
             else compare_mapped(args.bag, args.config, args.map))
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
-    return 0 if comp.passed else 1
+    return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)
 
 
 def report(comp, bag, out: Path) -> dict:
@@ -75,5 +80,6 @@ def report(comp, bag, out: Path) -> dict:
               f"{c.detail}")
     for note in comp.notes:
         print(f"  note: {note}")
-    print(f"{ACCEPTANCE}\n-> {'PASS' if comp.passed else 'FAIL'}; report: {files['index']}")
+    why = f" ({comp.no_verdict_reason})" if comp.no_verdict_reason else ""
+    print(f"{ACCEPTANCE}\n-> {comp.verdict}{why}; report: {files['index']}")
     return files

@@ -12,10 +12,15 @@ of :data:`RUNUP_REVOLUTIONS` revolutions (quasi-stationary). Channels: the plant
 (bearing-housing and foundation velocities), the foot accelerations and the controllers' forces.
 With several excitations the measured 1x is their superposition, compared with
 ``sum_j G_j(Omega) u_j`` (the run's complex amplitudes ``u_j``); with one, both are divided by
-it (response per unit unbalance, as the papers plot). Models at the measured speeds: the
-continuous loop (:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the
-sampled loop (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a
-lockstep run reproduces), the foot accelerations added as outputs of the plant.
+it (response per unit unbalance, as the papers plot). A run with the adaptive harmonic
+controller (channels ``harmonic_<id>_f<axis>``, its forces added to the feedback forces) is
+compared with ``sum_j G_j u_j + sum_a T_a(Omega) F_a``: its forces' measured 1x ``F_a`` drive
+the closed-loop transfer ``T_a`` from actuator ``a`` (:mod:`rotor_avc.analysis.transfer`, the
+same force path as a test force); the forces themselves are inputs, reported, not rated.
+Models at the measured speeds: the continuous loop
+(:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the sampled loop
+(:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a lockstep run
+reproduces), the foot accelerations added as outputs of the plant.
 
 **Broadband FRFs.** When the run had a test force (``simulation.test_signal``), H1, H2 and
 coherence (:func:`rotor_avc.analysis.frf_estimate.estimate_frf`: Hann window, 50 % overlap,
@@ -24,15 +29,39 @@ bearing-housing velocities, per dwell of at least :data:`MIN_BROADBAND_SAMPLES` 
 :mod:`rotor_avc.analysis.transfer` at the dwell's speed with ``w_F`` frozen as the run had it.
 
 **Checks** against the sampled-loop model (the acceptance of a recording: a lockstep bag agrees within
-0.5 dB away from resonances and 2 dB at them, resonance frequencies within 1 %), each the worst
-case over channels and speeds: 1x magnitude error away from resonances (0.5 dB) and at them
-(2 dB), the RMS over speed of a channel's 1x error in dB (0.5 dB), resonance frequency (1 %) and
-peak level (2 dB), and per broadband dwell the RMS of H1's error in dB over the bins of the test
-band with coherence >= :data:`MIN_COHERENCE` (0.5 dB). Phase errors are reported. The continuous
-model's values are reported beside them without a verdict, and so are the 1x checks of a run
-with a test force (its response at the rotational frequency is noise to the order tracking).
-Points more than :data:`FLOOR_DB` below a channel's model peak (notches, channels that barely
-respond) are not checked.
+0.5 dB and 5 degrees away from resonances and 2 dB and 15 degrees at them, resonance frequencies
+within 1 %), each the worst case over channels and speeds. The complex response is rated, so a
+sign error (180 degrees) or a delay fails even where the magnitude agrees:
+
+* 1x magnitude error away from resonances (0.5 dB) and at them (2 dB);
+* 1x phase error ``angle(measured / model)`` away from resonances (5 deg) and at them (15 deg);
+* the RMS over speed of a channel's 1x error in dB (0.5 dB);
+* resonance frequency (1 %) and peak level (2 dB);
+* per broadband dwell, over the bins of the test band with coherence >= :data:`MIN_COHERENCE`,
+  the RMS of H1's error in dB (0.5 dB) and in phase (5 deg);
+* dead channels: a recorded channel with no response (1x more than :data:`DEAD_DB` below the model
+  at every checked point, or an H1 of zero over the test band) where the model has one (0).
+
+Why these tolerances: a lockstep bag of seed 000 case 3 (5 kHz) meets the sampled loop within
+0.07 dB and 0.5 degrees (1x) and 0.09 dB / 0.9 degrees RMS (broadband, 3 s at 20 Hz); the
+phase tolerances match the magnitude ones (0.5 dB is a 6 % vector error, 3.4 degrees; at a
+resonance a 1 % frequency error moves the phase by about 0.01 / zeta rad, 10 degrees at 5 %
+damping), and they are tight enough for a commissioning check: a sign error (180 degrees), a
+swapped channel or a delay of one sample at 5 kHz above 70 Hz (5 degrees) fails. A real
+machine's sensor and amplifier phase lag must be in the model (or the run's configuration)
+before its bag can pass.
+
+The continuous model's values are reported beside them without a verdict, and so are the 1x
+checks of a run with a test force (its response at the rotational frequency is noise to the
+order tracking). Points more than :data:`FLOOR_DB` below a channel's model peak (notches,
+channels that barely respond) are not checked.
+
+**No verdict.** A comparison in which no check could be rated -- every 1x point unsettled or
+below the floor, every signal zero, the channels the models describe missing from the bag, no
+unbalance and no test force -- is neither PASS nor FAIL: :attr:`Comparison.verdict` is
+``NO VERDICT`` with the reason (exit status :data:`EXIT_NO_VERDICT` of ``rotor-avc compare``).
+A dead channel fails the comparison when anything else is rated, and is the reason of a no
+verdict when nothing is.
 Resonances (:mod:`rotor_avc.analysis.resonance_peaks`) are the model's peaks of at least 3 dB
 prominence inside the measured speeds; a point lies "at" one within its half-power (-3 dB) band,
 and its measured frequency and level come from the parabola through the highest measured point
@@ -41,6 +70,7 @@ of that band and its neighbours, when they resolve it.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,7 +83,8 @@ from ..closed_loop.loop import ClosedLoop
 from ..closed_loop.frf import unbalance_frf
 from ..analysis.frf_estimate import FrfEstimate, estimate_frf
 from ..analysis.poles import closed_loop_poles
-from .recorded_run import RecordedRun, read_run
+from .bag_source import BagSource
+from .recorded_run import MAX_DWELL_SAMPLES, RecordedRun, read_run
 from ..analysis.resonance_peaks import measured_resonance, model_peaks
 from ..analysis.sampled_loop import SampledLoop
 from ..analysis.transfer import TransferFrf, sampled_transfer_frf, transfer_frf
@@ -62,6 +93,15 @@ TOL_OFF_RESONANCE_DB = 0.5
 TOL_AT_RESONANCE_DB = 2.0
 TOL_RESONANCE_PCT = 1.0
 TOL_BAND_RMS_DB = 0.5
+TOL_PHASE_OFF_RESONANCE_DEG = 5.0
+TOL_PHASE_AT_RESONANCE_DEG = 15.0
+TOL_BAND_PHASE_RMS_DEG = 5.0
+#: a channel whose 1x is this far below the model at every checked point is dead
+DEAD_DB = 120.0
+#: channel prefix of the harmonic controller's forces (rotor_avc.compare.recorded_run)
+HARMONIC = "harmonic_"
+#: exit status of ``rotor-avc compare`` when nothing could be rated (0 pass, 1 fail)
+EXIT_NO_VERDICT = 5
 FLOOR_DB = 40.0
 MIN_COHERENCE = 0.98
 MIN_BROADBAND_SAMPLES = 2048
@@ -130,11 +170,20 @@ class Comparison:
     checks: list[Check]
     reference_metrics: list[Check]
     notes: list[str]
+    #: why nothing could be rated (empty when something was)
+    no_verdict_reason: str = ""
 
     @property
     def passed(self) -> bool:
         done = [c.passed for c in self.checks if c.passed is not None]
         return bool(done) and all(done)
+
+    @property
+    def verdict(self) -> str:
+        """``PASS``, ``FAIL`` or ``NO VERDICT`` (no check rated)."""
+        if not any(c.passed is not None for c in self.checks):
+            return "NO VERDICT"
+        return "PASS" if self.passed else "FAIL"
 
 
 # -- models ---------------------------------------------------------------------------------------
@@ -168,22 +217,52 @@ def _unbalance_models(run, loops, speeds, u_ref, channels) -> dict[str, dict[str
 
 # -- 1x -------------------------------------------------------------------------------------------
 def one_x_channels(run: RecordedRun) -> list[str]:
+    """The responses the models describe, then the harmonic controller's forces (inputs)."""
     plant = run.machine.plant
     names = [o.name for o in plant.outputs] + [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [f"actuator_{a.id}_f{a.axis}" for a in plant.actuators]
-    return [n for n in names if n in run.channels]
+    names += [f"{HARMONIC}{a.id}_f{a.axis}" for a in plant.actuators]
+    return [n for n in names if n in run.channel_names]
+
+
+def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
+    """``sum_a T_a(Omega) F_a`` per model and channel: the response to the harmonic controller's
+    forces (``inputs``: channel -> measured 1x per speed, per unit ``u_ref``)."""
+    w_F = np.broadcast_to(run.scenario.damping.w_F(run.machine.plant, speeds), speeds.shape)
+    transfer = {"continuous": transfer_frf, "sampled": sampled_transfer_frf}
+    out = {}
+    for name, loop in loops.items():
+        out[name] = {ch: np.zeros(speeds.shape, complex) for ch in channels}
+        for k, speed in enumerate(speeds):
+            for ch, force in inputs.items():
+                act = ch[len(HARMONIC):].rsplit("_f", 1)[0]
+                frf = transfer[name](loop, float(speed), speed / (2 * np.pi), act, channels,
+                                     float(w_F[k]))
+                for c in channels:
+                    out[name][c][k] += frf.responses[c][0] * force[k]
+    return out
 
 
 def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
     """Order tracking of :func:`one_x_channels`: ``(OrderTrack, method, settings)``."""
-    signals = {n: run.channels[n] for n in one_x_channels(run)}
-    t, theta, w = run.time_s, run.angle_rad, run.speed_rad_s
-    try:
-        track = order_tracking.stepped_speed(t, theta, w, signals, u_ref, settle_fraction=0.5)
-        return track, "stepped-speed dwells", {"settle_fraction": 0.5, "min_revolutions": 4,
-                                               "window": "rectangular, whole revolutions"}
-    except ModelError:
-        pass
+    names = one_x_channels(run)
+    tracks = []
+    for d in run.dwells():                     # from the start of each dwell's second half
+        cut = slice(d.settle_start, None)
+        try:
+            tracks.append(order_tracking.stepped_speed(
+                d.time_s[cut], d.angle_rad[cut], d.speed_rad_s[cut],
+                {n: d.channels[n][cut] for n in names}, u_ref, settle_fraction=0.0))
+        except ModelError:
+            continue
+    if tracks:
+        return order_tracking.concatenate(tracks), "stepped-speed dwells", {
+            "settle_fraction": 0.5, "min_revolutions": 4,
+            "window": "rectangular, whole revolutions",
+            "max_samples_per_dwell": MAX_DWELL_SAMPLES}
+    whole = run.whole()
+    signals = {n: whole.channels[n] for n in names}
+    t, theta, w = whole.time_s, whole.angle_rad, whole.speed_rad_s
     turning = np.flatnonzero(w > 0)
     if turning.size < 3:
         raise ModelError("order tracking: the rotor never turns in this run")
@@ -229,10 +308,21 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
     measured = {ch: track.phasors[ch][order] for ch in channels}
     drift = ({ch: track.drift[ch][order] for ch in channels} if method == "stepped-speed dwells"
              else {})
-    model = _unbalance_models(run, loops, speeds, u_ref, channels)
+    inputs = {ch: measured[ch] for ch in channels if ch.startswith(HARMONIC)}
+    outputs = [ch for ch in channels if ch not in inputs]
+    model = _unbalance_models(run, loops, speeds, u_ref, outputs)
     dense_speeds = {m: _dense_speeds(run, speeds, m) for m in loops}
-    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, channels)[m]
+    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, outputs)[m]
              for m in loops}
+    if inputs:
+        driven = _harmonic_models(run, loops, speeds, inputs, outputs)
+        for m in loops:
+            for ch in outputs:
+                model[m][ch] = model[m][ch] + driven[m][ch]
+            model[m].update(inputs)
+            dense[m].update({ch: np.interp(dense_speeds[m], speeds, v.real)
+                             + 1j * np.interp(dense_speeds[m], speeds, v.imag)
+                             for ch, v in inputs.items()})
     one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense,
                drift=drift)
     _one_x_metrics(one)
@@ -240,21 +330,31 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
 
 
 def _one_x_metrics(one: OneX) -> None:
+    """Errors per channel and point. With the harmonic controller's forces driving the model,
+    its dense curve (the feedback loop alone) does not describe the run: the floor is taken
+    from the model at the measured points and no resonance is looked for."""
     f_meas = one.speed_rad_s / (2 * np.pi)
+    driven = any(ch.startswith(HARMONIC) for ch in one.measured)
     for m in one.model:
         f_dense = one.dense_speed_rad_s[m] / (2 * np.pi)
         one.channels[m] = {}
         for ch, meas in one.measured.items():
+            if ch.startswith(HARMONIC):
+                one.channels[m][ch] = {"skipped": "an input: the harmonic controller's force, "
+                                                  "whose measured 1x drives the model"}
+                continue
             dense, mod = one.dense[m][ch], one.model[m][ch]
-            peak = float(np.abs(dense).max())
+            peak = float(np.abs(mod if driven else dense).max())
             if peak == 0.0 or not np.all(np.isfinite(dense)):
                 one.channels[m][ch] = {"skipped": "the model's response is zero"}
                 continue
             valid = np.abs(mod) >= peak * 10 ** (-FLOOR_DB / 20)
             unsettled = one.drift[ch] > SETTLE_TOL if ch in one.drift else np.zeros_like(valid)
-            valid &= ~unsettled
-            peaks = [p for p in model_peaks(f_dense, dense)
-                     if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
+            dead = bool(valid.any()) and bool(
+                np.all(np.abs(meas[valid]) <= np.abs(mod[valid]) * 10 ** (-DEAD_DB / 20)))
+            valid &= ~unsettled & (not dead)
+            peaks = [] if dead or driven else [p for p in model_peaks(f_dense, dense)
+                                               if f_meas.min() <= p["freq_hz"] <= f_meas.max()]
             at = np.zeros(f_meas.shape, bool)
             for p in peaks:
                 at |= (f_meas >= p["band_hz"][0]) & (f_meas <= p["band_hz"][1])
@@ -275,13 +375,14 @@ def _one_x_metrics(one: OneX) -> None:
             one.channels[m][ch] = {
                 "error_db": err, "phase_error_deg": np.where(valid, phase, np.nan),
                 "at_resonance": at, "checked_points": int(valid.sum()),
-                "unsettled": unsettled,
+                "unsettled": unsettled, "dead": dead,
                 "band_rms_db": float(np.sqrt(np.nanmean(err ** 2))) if valid.any() else None}
 
 
 def _worst(items, what: str):
-    """(value, detail) of the largest |value| among (value, description) pairs."""
-    items = [(abs(v), d) for v, d in items if v is not None and np.isfinite(v)]
+    """(value, detail) of the largest |value| among (value, description) pairs (an infinite
+    value counts: it fails; NaN and None mean nothing to rate)."""
+    items = [(abs(v), d) for v, d in items if v is not None and not np.isnan(v)]
     if not items:
         return None, f"no {what}"
     v, d = max(items, key=lambda x: x[0])
@@ -290,18 +391,23 @@ def _worst(items, what: str):
 
 def _one_x_checks(one: OneX, m: str) -> list[Check]:
     f = one.speed_rad_s / (2 * np.pi)
-    off, at, rms = [], [], []
+    off, at, rms, ph_off, ph_at = [], [], [], [], []
     for ch, c in one.channels[m].items():
         if "skipped" in c:
             continue
-        for k in np.flatnonzero(np.isfinite(c["error_db"])):
-            (at if c["at_resonance"][k] else off).append(
-                (c["error_db"][k], f"{ch} at {f[k]:.3f} Hz"))
+        for k in np.flatnonzero(~np.isnan(c["error_db"])):
+            where = f"{ch} at {f[k]:.3f} Hz"
+            (at if c["at_resonance"][k] else off).append((c["error_db"][k], where))
+            (ph_at if c["at_resonance"][k] else ph_off).append((c["phase_error_deg"][k], where))
         rms.append((c["band_rms_db"], ch))
     res = [r for r in one.resonances if r["model"] == m and "measured_hz" in r]
     specs = [("1x magnitude error away from resonances", off, TOL_OFF_RESONANCE_DB, "dB",
               "points"),
              ("1x magnitude error at resonances", at, TOL_AT_RESONANCE_DB, "dB",
+              "points at a resonance"),
+             ("1x phase error away from resonances", ph_off, TOL_PHASE_OFF_RESONANCE_DEG,
+              "deg", "points"),
+             ("1x phase error at resonances", ph_at, TOL_PHASE_AT_RESONANCE_DEG, "deg",
               "points at a resonance"),
              ("1x band RMS error", rms, TOL_BAND_RMS_DB, "dB", "channels"),
              ("resonance frequency error", [(r["freq_error_pct"], f"{r['channel']} at "
@@ -332,25 +438,26 @@ def broadband_outputs(run: RecordedRun) -> list[str]:
     plant = run.machine.plant
     names = [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [o.name for o in plant.outputs if o.name.startswith("bearing_")]
-    return [n for n in names if n in run.channels]
+    return [n for n in names if n in run.channel_names]
 
 
 def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
     """``(speed_rad_s, H1/H2 estimate)`` per constant-speed dwell long enough, from the test force
     to :func:`broadband_outputs`."""
-    if run.test_force is None:
+    if not run.has_test_force:
         return []
     outputs = broadband_outputs(run)
-    Y = np.column_stack([run.channels[n] for n in outputs])
     T = run.sample_period_s
     out = []
-    for a, b in order_tracking.dwells(run.speed_rad_s):
-        if b - a < MIN_BROADBAND_SAMPLES or run.speed_rad_s[a] <= 0:
+    for d in run.dwells():
+        t = d.time_s
+        if t.size < MIN_BROADBAND_SAMPLES:
             continue
-        if not np.allclose(np.diff(run.time_s[a:b]), T, rtol=1e-6, atol=1e-9):
-            raise ModelError(f"{run.path}: samples are missing between {run.time_s[a]:g} and "
-                             f"{run.time_s[b - 1]:g} s; a broadband estimate needs them all")
-        out.append((float(run.speed_rad_s[a]), estimate_frf(run.test_force[a:b], Y[a:b], 1 / T)))
+        if not np.allclose(np.diff(t), T, rtol=1e-6, atol=1e-9):
+            raise ModelError(f"{run.path}: samples are missing between {t[0]:g} and "
+                             f"{t[-1]:g} s; a broadband estimate needs them all")
+        Y = np.column_stack([d.channels[n] for n in outputs])
+        out.append((float(d.speed_rad_s[0]), estimate_frf(d.test_force, Y, 1 / T)))
     return out
 
 
@@ -373,11 +480,14 @@ def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
             for i, name in enumerate(outputs):
                 h1, coh = est.h1[sel, i], est.coherence[sel, i]
                 ok = coh >= MIN_COHERENCE
+                resp = model.responses[name]
+                dead = bool(np.any(resp)) and bool(np.all(np.abs(h1) <= np.abs(resp)
+                                                             * 10 ** (-DEAD_DB / 20)))
                 with np.errstate(divide="ignore", invalid="ignore"):
                     err = _db(h1) - _db(model.responses[name])
                     phase = np.degrees(np.angle(h1 / model.responses[name]))
                 bb.channels[m][name] = {
-                    "coherent_bins": int(ok.sum()), "bins": int(ok.size),
+                    "coherent_bins": int(ok.sum()), "bins": int(ok.size), "dead": dead,
                     "band_rms_db": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else None,
                     "max_error_db": float(np.abs(err[ok]).max()) if ok.any() else None,
                     "phase_rms_deg": float(np.sqrt(np.mean(phase[ok] ** 2))) if ok.any() else None}
@@ -388,12 +498,48 @@ def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
 def _broadband_checks(bbs: list[Broadband], m: str) -> list[Check]:
     out = []
     for bb in bbs:
-        value, detail = _worst([(c["band_rms_db"], name) for name, c in bb.channels[m].items()],
-                               f"bins with coherence >= {MIN_COHERENCE}")
-        out.append(Check(f"broadband H1 band RMS error at {bb.speed_rad_s / (2 * np.pi):.3f} Hz",
-                         value, TOL_BAND_RMS_DB, "dB",
-                         None if value is None else value <= TOL_BAND_RMS_DB, detail))
+        at = f"at {bb.speed_rad_s / (2 * np.pi):.3f} Hz"
+        for name, key, tol, unit in (("band RMS error", "band_rms_db", TOL_BAND_RMS_DB, "dB"),
+                                     ("phase RMS error", "phase_rms_deg", TOL_BAND_PHASE_RMS_DEG,
+                                      "deg")):
+            value, detail = _worst([(c[key], ch) for ch, c in bb.channels[m].items()],
+                                   f"bins with coherence >= {MIN_COHERENCE}")
+            out.append(Check(f"broadband H1 {name} {at}", value, tol, unit,
+                             None if value is None else value <= tol, detail))
     return out
+
+
+def _dead_channels(one: OneX | None, bbs: list[Broadband], m: str) -> Check | None:
+    """The channels that recorded nothing where the model responds (None: none)."""
+    dead = set()
+    if one is not None:
+        dead |= {ch for ch, c in one.channels[m].items() if c.get("dead")}
+    for bb in bbs:
+        dead |= {ch for ch, c in bb.channels[m].items() if c["dead"]}
+    if not dead:
+        return None
+    return Check("dead channels", float(len(dead)), 0.0, "channels", False,
+                 "no response recorded where the model has one: " + ", ".join(sorted(dead))
+                 + " -- check the sensor, its wiring and its topic")
+
+
+def _no_verdict_reason(run: RecordedRun, one: OneX | None, bbs: list[Broadband],
+                       dead: Check | None) -> str:
+    """Why nothing could be rated."""
+    if dead is not None:
+        return f"every channel with a response is dead ({dead.detail.split(': ', 1)[1]})"
+    if one is None and not bbs:
+        return ("nothing to compare: no 1x response (see the notes) and no broadband dwell of a "
+                "test force")
+    if one is not None:
+        ch = one.channels["sampled"]
+        unsettled = sum(int(c["unsettled"].sum()) for c in ch.values() if "unsettled" in c)
+        if unsettled:
+            return (f"every 1x point is left out: {unsettled} point(s) not in steady state, the "
+                    f"others more than {FLOOR_DB:g} dB below the model's peak; dwell longer")
+        return (f"every 1x point is more than {FLOOR_DB:g} dB below its channel's model peak or "
+                "unrated (a run with a test force)")
+    return f"no broadband bin reaches coherence {MIN_COHERENCE}"
 
 
 # -- poles ----------------------------------------------------------------------------------------
@@ -412,22 +558,31 @@ def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
 
 # -- all of it ------------------------------------------------------------------------------------
 def compare_run(run: RecordedRun) -> Comparison:
-    """The comparison of a recorded run (see the module docstring)."""
+    """The comparison of a recorded run (see the module docstring): ``run`` a
+    :class:`RecordedRun` or any source of the same metadata and dwells
+    (:class:`~rotor_avc.compare.bag_source.BagSource`)."""
     if run.scenario.use_balancer:
         raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
                          "the fixed-unbalance models do not describe; compare a run without it")
     loops = _loops(run)
-    notes = list(run.notes)
-    one = compare_one_x(run, loops)
-    if one is None:
-        notes.append("the run has no unbalance: no 1x response to compare")
+    one = compare_one_x(run, loops) if one_x_channels(run) else None
     bbs = compare_broadband(run, loops)
-    if run.test_force is not None and not bbs:
+    notes = list(run.notes)                   # after the passes over the run (a streamed bag)
+    if not one_x_channels(run):
+        notes.append("no channel the models describe (plant outputs, foot accelerations, "
+                     "actuator forces) is in the recording: no 1x response to compare")
+    elif one is None:
+        notes.append("the run has no unbalance: no 1x response to compare")
+    elif any(ch.startswith(HARMONIC) for ch in one.measured):
+        notes.append("the harmonic controller's forces (harmonic/forces) drive the models with "
+                     "their measured 1x; no resonance check (the models over speed are the "
+                     "feedback loop alone)")
+    if run.has_test_force and not bbs:
         notes.append(f"the run's test force has no constant-speed dwell of "
                      f"{MIN_BROADBAND_SAMPLES} samples: no broadband FRF")
-    elif run.test_force is not None:
+    elif run.has_test_force:
         notes.append(f"test force: {run.test_source}")
-    rate_one_x = run.test_force is None
+    rate_one_x = not run.has_test_force
     if one is not None and not rate_one_x:
         notes.append("1x checks not rated: the broadband test force's response at the rotational "
                      "frequency adds to the 1x phasors (compare a run without a test force)")
@@ -439,12 +594,23 @@ def compare_run(run: RecordedRun) -> Comparison:
             for c in one_checks + (bb_checks if m == "continuous" else []):
                 c.passed = None
         target += one_checks + bb_checks
+    dead = _dead_channels(one, bbs, "sampled")
+    reason = ""
+    if not any(c.passed is not None for c in checks):
+        reason = _no_verdict_reason(run, one, bbs, dead)
+        notes.append(f"no verdict: {reason}")
+    elif dead is not None:
+        checks.append(dead)
     speeds = (np.unique(one.speed_rad_s) if one else np.array([bb.speed_rad_s for bb in bbs]))
     if speeds.size > 6:
         speeds = speeds[np.linspace(0, speeds.size - 1, 6).round().astype(int)]
-    return Comparison(run, one, bbs, run_poles(run, speeds), checks, reference, notes)
+    poles = run_poles(run, speeds) if speeds.size else []
+    return Comparison(run, one, bbs, poles, checks, reference, notes, reason)
 
 
-def compare_bag(path) -> Comparison:
-    """Read a bag and compare it (:func:`read_run`, :func:`compare_run`)."""
-    return compare_run(read_run(path))
+def compare_bag(path, in_memory: bool = False) -> Comparison:
+    """Compare a bag, a .mcap file streamed (:class:`~rotor_avc.compare.bag_source.BagSource`)
+    or, with ``in_memory`` and for a rosbag2 directory, read into memory first
+    (:func:`read_run`)."""
+    streamed = not in_memory and not Path(path).is_dir()
+    return compare_run(BagSource(path) if streamed else read_run(path))

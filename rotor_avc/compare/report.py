@@ -30,15 +30,17 @@ from pathlib import Path
 import numpy as np
 
 from .comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
-                                   TOL_RESONANCE_PCT, Comparison)
+                         TOL_PHASE_AT_RESONANCE_DEG, TOL_PHASE_OFF_RESONANCE_DEG,
+                         TOL_RESONANCE_PCT, Comparison)
 from ..analysis.frf_estimate import h1_random_error
 from .figures import broadband_figures, one_x_figures, poles_figure
 from ..interactive.page import page as interactive_page
 from ..interactive.jsonable import jsonable as _clean
 
 ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "
-              f"within {TOL_OFF_RESONANCE_DB:g} dB away from resonances and "
-              f"{TOL_AT_RESONANCE_DB:g} dB at them, and its resonance frequencies within "
+              f"within {TOL_OFF_RESONANCE_DB:g} dB and {TOL_PHASE_OFF_RESONANCE_DEG:g} deg away "
+              f"from resonances and {TOL_AT_RESONANCE_DB:g} dB and "
+              f"{TOL_PHASE_AT_RESONANCE_DEG:g} deg at them, and its resonance frequencies within "
               f"{TOL_RESONANCE_PCT:g} %.")
 STYLE = {"sampled": dict(ls="-", lw=1.0), "continuous": dict(ls="--", lw=0.8)}
 #: the broadband plots draw H1's random-error band where it is narrower than this (relative)
@@ -58,7 +60,8 @@ def _summary(c: dict) -> dict:
 def metrics(comp: Comparison) -> dict:
     run = comp.run
     sc = run.scenario
-    out = {"pass": comp.passed, "acceptance": ACCEPTANCE,
+    out = {"pass": comp.passed, "verdict": comp.verdict,
+           "no_verdict_reason": comp.no_verdict_reason, "acceptance": ACCEPTANCE,
            "bag": str(run.path), "machine": sc.machine.plant.name,
            "config_source": run.config.get("source"),
            "package_version": run.config.get("package_version"),
@@ -267,7 +270,7 @@ def _fmt(v) -> str:
 
 
 def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Path:
-    verdict = "PASS" if comp.passed else "FAIL"
+    verdict = comp.verdict
     checks = _table([[{True: "pass", False: "FAIL", None: "-"}[c.passed], c.name, _fmt(c.value),
                       f"{c.tolerance:g} {c.unit}", c.detail] for c in comp.checks],
                     ["verdict", "check (sampled-loop model)", "value", "tolerance", "detail"])
@@ -298,7 +301,9 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
                       for p in pngs)
     css_verdict = "pass" if comp.passed else "fail"
     blocks = [f'<p class="{css_verdict}" style="font-size:20px">{verdict}</p>'
-              f"<p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>.</p>", checks,
+              f"<p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>"
+              f"{html.escape(' -- ' + comp.no_verdict_reason) if comp.no_verdict_reason else ''}"
+              ".</p>", checks,
               "<h2>Continuous model (the papers' FRFs), for reference</h2>", ref,
               "<h2>Run</h2>", _table(info, ["item", "value"]),
               "<h2>Resonances (measured vs model)</h2>",
