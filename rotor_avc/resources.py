@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 
 from .errors import RotorAvcError
 
@@ -72,6 +73,15 @@ def check_time(seconds: float, what: str, fix: str) -> None:
     """Refuse work estimated to take ``seconds`` for ``what`` above :func:`time_limit_s`."""
     _refuse_above(seconds / 3600, time_limit_s() / 3600, f"{what} would take about {{:.3g}} h",
                   "h", fix, "--max-hours")
+
+
+def check_disk(nbytes: float, folder, what: str, fix: str) -> None:
+    """Refuse writing about ``nbytes`` more for ``what`` into ``folder`` beyond its free space."""
+    free = shutil.disk_usage(folder).free
+    if nbytes > free:
+        raise ResourceError(f"{what} needs about {nbytes / GIB:.3g} GiB more on disk, "
+                            f"{folder} has {free / GIB:.3g} GiB free -- fix: {fix}, or write "
+                            "to a disk with more room")
 
 
 def _refuse_above(amount: float, limit: float, claim: str, unit: str, fix: str,

@@ -7,6 +7,7 @@ import pytest
 from rotor_avc import resources
 from rotor_avc.cli import main
 from rotor_avc.closed_loop.frf import unbalance_frf
+from rotor_avc.config import find_config
 from rotor_avc.machine import load_machine
 from rotor_avc.resources import ENV_VAR, TIME_ENV_VAR, ResourceError
 
@@ -59,3 +60,34 @@ def test_a_bad_limit_is_named(monkeypatch, value):
     monkeypatch.setenv(ENV_VAR, value)
     with pytest.raises(ResourceError, match=f"{ENV_VAR} .--max-memory-gb. must be a number"):
         resources.memory_limit_bytes()
+
+
+@pytest.mark.parametrize("suffix", [".mcap", ".npz"])
+def test_a_simulation_beyond_the_time_or_disk_limit_stops_after_its_first_block(
+        tmp_path, capsys, monkeypatch, suffix):
+    """A million-second run (5e9 samples) streams with bounded memory, but its time or its
+    output (about 1 TB), extrapolated from the first block, is far beyond the default 24 h or
+    this disk: refused, and nothing is left."""
+    monkeypatch.delenv(TIME_ENV_VAR, raising=False)
+    config = tmp_path / "long.yaml"
+    config.write_text(f"include: {find_config('scenario_case3_steady')}\n"
+                      "simulation: {duration_s: 1000000.0}\n")
+    assert main(["simulate", str(config), "--out", str(tmp_path / f"long{suffix}")]) == 2
+    err = capsys.readouterr().err
+    assert ("the run of 5000000000 samples would take about" in err and "--max-hours" in err
+            or "the output of 5000000000 samples needs about" in err and "GiB free" in err), err
+    assert list(tmp_path.iterdir()) == [config]
+
+
+def test_a_simulation_output_beyond_the_free_disk_space_is_refused(tmp_path, capsys,
+                                                                   monkeypatch):
+    monkeypatch.setenv(TIME_ENV_VAR, "1e9")
+    monkeypatch.setattr(resources.shutil, "disk_usage",
+                        lambda path: type("Usage", (), {"free": 10 * 2**20})())
+    config = tmp_path / "long.yaml"
+    config.write_text(f"include: {find_config('scenario_case3_steady')}\n"
+                      "simulation: {duration_s: 100.0}\n")
+    assert main(["simulate", str(config), "--out", str(tmp_path / "long.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert "the output of 500000 samples needs about" in err and "GiB free" in err
+    assert list(tmp_path.iterdir()) == [config]

@@ -7,6 +7,7 @@ import numpy as np
 
 from ..analysis.design_check import DivergenceError, DivergenceWatch, check_scenario, fault_summary
 from ..recording import stream_run_bag
+from ..resources import check_disk, check_time
 from ..scenario import load_scenario
 from ..sim.timeseries import save_blocks
 from .common import EXIT_INTERRUPTED, interrupt_flag, output_file, partial_name, warn
@@ -46,12 +47,18 @@ def run(args) -> int:
     watch = DivergenceWatch(check, scenario.n_steps, controllers)
 
     def watched(blocks):
-        """The blocks, each checked for overflow; the growth is judged at the end."""
+        """The blocks, each checked for overflow (the growth is judged at the end); after the
+        first, the whole run's time and output size are estimated and refused above the
+        limits."""
+        done = 0
         for ts in blocks:
             why = watch.feed(ts)
             if why:
                 raise DivergenceError(f"{why} -- nothing written")
             yield ts
+            if done == 0:
+                _check_budget(ts, scenario.n_steps, time.perf_counter() - t0, partial)
+            done += len(ts)
     try:
         with interrupt_flag() as interrupted, np.errstate(over="ignore", invalid="ignore"):
             blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,
@@ -81,6 +88,19 @@ def run(args) -> int:
         name = max(peaks, key=peaks.get)
         print(f"largest bearing-housing value: {name} {peaks[name]:.3g} {units[name]}")
     return 0
+
+
+def _check_budget(first, total: int, elapsed_s: float, partial) -> None:
+    """Refuse a run whose rest, extrapolated from its ``first`` block, would exceed the time
+    limit or the output folder's free disk space (a bag: the bytes written so far; ``.npz``:
+    the raw arrays twice, the ``.npy`` files and the archive deflated from them)."""
+    done = len(first)
+    rest = (total - done) / max(done, 1)
+    fix = "shorten simulation.duration_s or lower simulation.sample_rate_hz"
+    check_time(elapsed_s * rest, f"the run of {total} samples", fix)
+    written = (partial.stat().st_size if partial.suffix == ".mcap"
+               else 2 * sum(a.nbytes for a in first._arrays().values()))
+    check_disk(written * rest, partial.parent, f"the output of {total} samples", fix)
 
 
 def _summary(blocks) -> tuple[int, dict[str, float], dict[str, str]]:
