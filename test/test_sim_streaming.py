@@ -124,11 +124,12 @@ def _wait_for(condition, timeout_s=60.0):
         time.sleep(0.02)
 
 
-def test_ctrl_c_leaves_a_valid_partial_bag(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_kill_leaves_a_valid_partial_bag(tmp_path, sig):
     out = tmp_path / "run.mcap"
     proc = _simulate(tmp_path, out)
     _wait_for(lambda: (tmp_path / ".run.partial.mcap").exists())      # the run has started
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == EXIT_INTERRUPTED, stderr
     assert "Traceback" not in stderr and "valid partial run" in stdout

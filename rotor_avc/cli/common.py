@@ -107,21 +107,28 @@ def output_file(text: str, suffixes: tuple[str, ...] = ()) -> Path:
     return path
 
 
+#: the signals a long run stops on at a clean point: Ctrl-C and `kill` / `timeout`
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextlib.contextmanager
 def interrupt_flag():
-    """While inside: Ctrl-C (SIGINT) only sets a flag, read by calling the yielded function, so
-    a long run can stop at a clean point; a second Ctrl-C interrupts at once."""
+    """While inside: Ctrl-C (SIGINT) or SIGTERM only sets a flag, read by calling the yielded
+    function, so a long run can stop at a clean point; a second one interrupts at once
+    (KeyboardInterrupt: the run's clean-up still runs)."""
     hit = []
 
     def handler(signum, frame):
+        if hit:
+            raise KeyboardInterrupt
         hit.append(signum)
-        signal.signal(signal.SIGINT, previous)
 
-    previous = signal.signal(signal.SIGINT, handler)
+    previous = {sig: signal.signal(sig, handler) for sig in STOP_SIGNALS}
     try:
         yield lambda: bool(hit)
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def partial_name(path: Path) -> Path:
