@@ -24,11 +24,10 @@ from .errors import BagError
 from .integrity import IntegrityReport, TopicData, scan_bag
 from .metadata import CONFIG_RECORD, DEFAULT_QOS, QOS_CHOICES, load_yaml
 from .reader import BagReader
+from .rosbag2 import METADATA_FILE, bagfile_information
 from .rosbag2_info import check_rosbag2_info
 from .sequence import check_sequence
 from .topics import SAMPLED
-
-METADATA_FILE = "metadata.yaml"
 
 
 @dataclass(frozen=True)
@@ -51,19 +50,7 @@ def bag_files(path) -> tuple[list[Path], dict | None]:
         return [path], None
     if not path.is_dir():
         raise BagError(path, "no such bag file or directory", fix="check the path")
-    meta_path = path / METADATA_FILE
-    if not meta_path.is_file():
-        raise BagError(path, f"a directory without {METADATA_FILE}",
-                       fix="give a rosbag2 directory or one .mcap file")
-    try:
-        info = load_yaml(meta_path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise BagError(meta_path, f"not readable YAML ({exc})",
-                       fix="restore the file (`ros2 bag reindex` rebuilds it)") from None
-    body = info.get("rosbag2_bagfile_information") if isinstance(info, dict) else None
-    if not isinstance(body, dict):
-        raise BagError(meta_path, "no rosbag2_bagfile_information mapping",
-                       fix="restore the file (`ros2 bag reindex` rebuilds it)")
+    body = bagfile_information(path)
     listed = body.get("relative_file_paths") or []
     files = [path / str(p) for p in listed]
     if not files:
@@ -193,7 +180,7 @@ def _integrity_line(reports) -> CheckLine:
     crcs = sorted({f"{k} {v}" for r in reports for k, v in r.crcs.items()})
     return CheckLine("integrity", count == 0,
                      f"{count} problem(s): " + "; ".join(problems[:3]) if count
-                     else f"data match indexes, statistics and schemas; CRCs: "
+                     else "data match indexes, statistics and schemas; CRCs: "
                           + (", ".join(crcs) or "chunk"),
                      "the file is damaged or was altered: `rotor-avc bag recover BAG` keeps "
                      "every intact chunk")

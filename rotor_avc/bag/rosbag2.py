@@ -18,7 +18,7 @@ import numpy as np
 import yaml
 
 from .errors import BagError
-from .metadata import CONFIG_RECORD
+from .metadata import CONFIG_RECORD, load_yaml
 from .reader import BagMessage, BagReader, TopicInfo, TopicSeries
 
 METADATA_FILE = "metadata.yaml"
@@ -36,15 +36,15 @@ def open_bag(path, *, require_config: bool = False, require_messages: bool = Fal
                      integrity=integrity)
 
 
-def bag_files(directory: Path) -> list[Path]:
-    """The files a rosbag2 directory's ``metadata.yaml`` lists, in order (BagError naming what
-    is missing or wrong)."""
+def bagfile_information(directory: Path) -> dict:
+    """The ``rosbag2_bagfile_information`` mapping of a directory's ``metadata.yaml``
+    (BagError naming what is missing or unreadable)."""
     meta_path = directory / METADATA_FILE
     if not meta_path.is_file():
         raise BagError(directory, f"a directory without {METADATA_FILE}: not a rosbag2 bag",
                        fix="give the bag directory `ros2 bag record` wrote, or a .mcap file")
     try:
-        meta = yaml.safe_load(meta_path.read_text())
+        meta = load_yaml(meta_path.read_text(encoding="utf-8"))
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise BagError(meta_path, f"unreadable YAML ({str(exc).splitlines()[0]})",
                        fix="restore metadata.yaml (`ros2 bag reindex` rebuilds it)") from None
@@ -52,6 +52,14 @@ def bag_files(directory: Path) -> list[Path]:
     if not isinstance(info, dict):
         raise BagError(meta_path, "no rosbag2_bagfile_information mapping",
                        fix="restore metadata.yaml (`ros2 bag reindex` rebuilds it)")
+    return info
+
+
+def bag_files(directory: Path) -> list[Path]:
+    """The files a rosbag2 directory's ``metadata.yaml`` lists, in order (BagError naming what
+    is missing or wrong)."""
+    info = bagfile_information(directory)
+    meta_path = directory / METADATA_FILE
     storage = info.get("storage_identifier")
     if storage != "mcap":
         raise BagError(meta_path, f"storage_identifier is {storage!r}; only mcap is read",
