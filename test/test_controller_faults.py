@@ -126,3 +126,16 @@ def test_gaps_in_the_stamps_count_the_dropped_samples():
     for k, j in zip(keep, jitter):
         assert screen.classify(round((k * T + j) * 1e9)) == "ok"
     assert screen.counts["dropped"] == (keep[-1] - keep[0] + 1) - keep.size
+
+
+def test_samples_answered_at_the_force_limit_are_counted(tmp_path):
+    """An in-range spike through G_c = b0/s on acceleration (no leak) drives the force to
+    force_limit_n; the block counts every sample answered at the limit (the node reports it
+    as ``saturated`` on /diagnostics), so a force held at its limit is never silent, and a
+    saturation is not a fault."""
+    b = block(tmp_path, force_limit_n=2000.0)
+    x = signal()
+    forces = np.array([b.step(5e4 if k == K_FAULT else v) for k, v in enumerate(x)])
+    at_limit = int(np.sum(np.abs(forces) >= 2000.0))
+    assert at_limit > 0 and b.saturated_samples == at_limit
+    assert b.faults == {"implausible": 0, "filter_reset": 0}

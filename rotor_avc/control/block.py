@@ -91,6 +91,8 @@ class DigitalController:
         self.measurement_limit = float(limit)
         self.safe_output = safe_output
         self.faults = dict.fromkeys(FAULT_KINDS, 0)
+        #: samples answered at the force limit (a pure integrator can hold there: leak_hz)
+        self.saturated_samples = 0
 
     @property
     def safe_output(self) -> str:
@@ -170,6 +172,8 @@ class DigitalController:
             measurement = self._delay.popleft()
         if self._limited:
             y = limited_step(self.filter, measurement, self.limits, self.anti_windup, self._kb)
+            if not -self.limits.force_limit_n < y < self.limits.force_limit_n:
+                self.saturated_samples += 1
         else:
             y = self.filter.step(measurement)
         if y - y != 0.0:                          # inf or NaN: an unstable G_c ran away

@@ -200,7 +200,8 @@ class FootController(Node):
     @property
     def counts(self) -> dict:
         """Every fault and overload counter (node, stamp screen, controller block)."""
-        return {**self.faults, **self.stamps.counts, **self.ctrl.faults}
+        return {**self.faults, **self.stamps.counts, **self.ctrl.faults,
+                "saturated": self.ctrl.saturated_samples}
 
     def _report(self, text: str) -> None:
         if text != self.last_fault:
