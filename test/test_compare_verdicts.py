@@ -18,9 +18,9 @@ import pytest
 from rotor_avc.bag import BagReader, BagWriter
 from rotor_avc.bag.sequence import EXIT_INCOMPLETE
 from rotor_avc.cli import main
-from rotor_avc.compare.comparison import (EXIT_NO_VERDICT, TOL_BAND_PHASE_RMS_DEG,
-                                          TOL_PHASE_OFF_RESONANCE_DEG, compare_bag,
-                                          compare_run)
+from rotor_avc.compare.checks import (EXIT_NO_VERDICT, TOL_BAND_PHASE_RMS_DEG,
+                                      TOL_PHASE_OFF_RESONANCE_DEG)
+from rotor_avc.compare.comparison import compare_bag, compare_run
 from rotor_avc.compare.recorded_run import read_run
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import write_run_bag

@@ -4,7 +4,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ..compare.comparison import EXIT_NO_VERDICT, compare_bag
+from ..compare.checks import EXIT_NO_VERDICT
+from ..compare.comparison import compare_bag
 from ..compare.mapped_run import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report

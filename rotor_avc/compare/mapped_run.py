@@ -32,7 +32,8 @@ from ..bag.rosbag2 import open_bag
 from ..config import find_config, load_yaml
 from ..errors import ConfigError
 from ..scenario import scenario_from_config
-from .comparison import MIN_COHERENCE, TOL_OFF_RESONANCE_DB, Comparison, compare_run
+from .checks import MIN_COHERENCE, TOL_OFF_RESONANCE_DB
+from .comparison import Comparison, compare_run
 from .recorded_run import RecordedRun
 from .recording_map import DEFAULT_ANGLE_FIELD, read_map
 

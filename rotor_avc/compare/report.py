@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .comparison import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
-                         TOL_PHASE_AT_RESONANCE_DEG, TOL_PHASE_OFF_RESONANCE_DEG,
-                         TOL_RESONANCE_PCT, Comparison)
+from .checks import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
+                     TOL_PHASE_AT_RESONANCE_DEG, TOL_PHASE_OFF_RESONANCE_DEG, TOL_RESONANCE_PCT)
+from .comparison import Comparison
 from ..analysis.frf_estimate import h1_random_error
 from .figures import broadband_figures, one_x_figures, poles_figure
 from ..interactive.page import page as interactive_page
