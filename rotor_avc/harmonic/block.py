@@ -232,11 +232,8 @@ class HarmonicController:
     # -- stepping ----------------------------------------------------------------------------
     def step(self, signals, angle: float, speed: float) -> list[float]:
         """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
-        k = self.k
-        self.k = k + 1
-        if self.mode == "off" or not self._min_speed <= speed <= self._max_speed:
-            if not self._may_run(k, speed):
-                return self._zero
+        if not self._counted_on(speed):
+            return self._zero
         w = speed * self.sample_period_s
         acc = self._acc
         trig = []
@@ -268,6 +265,14 @@ class HarmonicController:
             for j in range(len(forces)):
                 forces[j] += re[j] * c - im[j] * s
         return forces
+
+    def _counted_on(self, speed: float) -> bool:
+        """Count the sample; switch on or off at it (:meth:`_may_run`); True while on."""
+        k = self.k
+        self.k = k + 1
+        if self.mode == "off" or not self._min_speed <= speed <= self._max_speed:
+            return self._may_run(k, speed)
+        return True
 
     def _may_run(self, k: int, speed: float) -> bool:
         """Switch on (from zero) or off at this sample; True while on."""

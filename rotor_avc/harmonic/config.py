@@ -11,6 +11,8 @@
                                            # auto: per speed from the loop analysis
       adapt_in: forces                     # forces | excitations (1x: adapt the unbalance
       refresh_samples: 0                   #   estimate; phasors re-scheduled every n samples)
+      feedforward: quasi_static            # quasi_static | dynamic (adapt_in excitations: the
+      feedforward_effort: 1.0e-2           #   internal loop of .internal_model; its LQ weight)
       effort_weight: 0.0                   # wls: effort penalty relative to |G|^2
       leakage: 0.0                         # per update, in [0, 1)
       sensor_weights: [1.0, 1.0]           # optional, one per sensor
@@ -57,6 +59,7 @@ from .laws import LAWS
 from .runout import WithRunout, runout_terms
 
 HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "adapt_in", "refresh_samples",
+                 "feedforward", "feedforward_effort",
                  "effort_weight", "leakage",
                  "sensor_weights", "update_every_samples", "force_limit_n", "rate_limit_n_per_s",
                  "min_speed_hz", "start_s", "influence", "identification", "fallback", "runout")
@@ -64,6 +67,7 @@ INFLUENCE_KEYS = ("rel_step", "phase_error_deg", "magnitude_factor")
 IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "min_rel_change", "seed")
 FALLBACK_KEYS = ("mode", "divergence_factor", "poor_residual", "patience", "fade_updates")
 DEFAULT_REL_STEP = 0.005
+FEEDFORWARDS = ("quasi_static", "dynamic")
 #: ``gain: auto``: candidate gains and the relative speed step of the analysed speeds
 AUTO_GAINS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5)
 AUTO_GAIN_STEP = 0.08
@@ -188,6 +192,38 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
         settings = replace(settings, gain_speeds_rad_s=speeds, gain_values=gains)
     schedule = schedule.perturbed(inf.number("phase_error_deg", 0.0),
                                   inf.number("magnitude_factor", 1.0, positive=True))
-    block = HarmonicController(schedule, sample_period_s, settings)
+    if sec.choice("feedforward", FEEDFORWARDS, default="quasi_static") == "dynamic":
+        block = _dynamic_block(sec, inf, loop, schedule, sample_period_s, settings, w_F)
+    elif sec.has("feedforward_effort"):
+        raise sec.error("feedforward_effort", "weights the internal loop of feedforward: "
+                        "dynamic only", fix="add feedforward: dynamic, or drop it")
+    else:
+        block = HarmonicController(schedule, sample_period_s, settings)
     return WithRunout(block, terms) if terms else block
+
+
+def _dynamic_block(sec, inf, loop, schedule, sample_period_s, settings, w_F):
+    """The block with the dynamic feed-forward (:mod:`.dynamic_block`), its settings checked."""
+    from .dynamic_block import DynamicHarmonicController
+    from .internal_model import DEFAULT_EFFORT, internal_tables
+    if settings.adapt_in != "excitations":
+        raise sec.error("feedforward", "dynamic runs the internal loop on the excitation "
+                        "estimate", fix="add adapt_in: excitations, or use feedforward: "
+                        "quasi_static")
+    if settings.refresh_samples < 1:
+        raise sec.error("refresh_samples", "the dynamic feed-forward needs its block length",
+                        fix="give refresh_samples >= 1 (e.g. 25)")
+    if settings.identify or inf.has("phase_error_deg") or inf.has("magnitude_factor"):
+        raise sec.error("feedforward", "dynamic runs on the model itself: no influence "
+                        "identification or perturbation",
+                        fix="drop identification and influence.phase_error_deg / "
+                        "magnitude_factor, or use feedforward: quasi_static")
+    effort = sec.number("feedforward_effort", DEFAULT_EFFORT, positive=True)
+    try:
+        tables = internal_tables(loop, schedule.actuators, schedule.sensors,
+                                 schedule.speeds_rad_s, settings.refresh_samples, w_F, effort,
+                                 settings.sensor_weights)
+    except ModelError as exc:
+        raise sec.error("feedforward", str(exc)) from None
+    return DynamicHarmonicController(schedule, sample_period_s, settings, tables)
 

@@ -60,14 +60,7 @@ class InfluenceSchedule:
         return self._interpolate(self.disturbance, speed_rad_s)
 
     def _interpolate(self, table: np.ndarray, speed_rad_s: float) -> np.ndarray:
-        sp = self.speeds_rad_s
-        if speed_rad_s <= sp[0]:
-            return table[0]
-        if speed_rad_s >= sp[-1]:
-            return table[-1]
-        k = int(np.searchsorted(sp, speed_rad_s))
-        w = (speed_rad_s - sp[k - 1]) / (sp[k] - sp[k - 1])
-        return (1 - w) * table[k - 1] + w * table[k]
+        return interpolate(self.speeds_rad_s, table, speed_rad_s)
 
     def perturbed(self, phase_error_deg: float = 0.0, magnitude_factor: float = 1.0
                   ) -> "InfluenceSchedule":
@@ -78,6 +71,19 @@ class InfluenceSchedule:
         factor = magnitude_factor * np.exp(1j * np.deg2rad(phase_error_deg))
         return InfluenceSchedule(self.speeds_rad_s, self.harmonics, self.matrices * factor,
                                  self.sensors, self.actuators, self.disturbance, self.excitations)
+
+
+def interpolate(speeds_rad_s: np.ndarray, table: np.ndarray, speed_rad_s: float) -> np.ndarray:
+    """``table[s]`` (at ``speeds_rad_s[s]``, ascending) linearly interpolated at one speed,
+    clamped to the table's ends."""
+    sp = speeds_rad_s
+    if speed_rad_s <= sp[0]:
+        return table[0]
+    if speed_rad_s >= sp[-1]:
+        return table[-1]
+    k = int(np.searchsorted(sp, speed_rad_s))
+    w = (speed_rad_s - sp[k - 1]) / (sp[k] - sp[k - 1])
+    return (1 - w) * table[k - 1] + w * table[k]
 
 
 def schedule_speeds(start_rad_s: float, stop_rad_s: float, rel_step: float) -> np.ndarray:

@@ -51,15 +51,21 @@ class LoopWithInput:
     B: np.ndarray
     C: np.ndarray
     n_drift: int
+    #: ``X+ = ... + Re{Be a e^{j theta_k}}``, ``e = ... + Re{De a e^{j theta_k}}``: the plant's
+    #: synchronous excitations (amplitudes ``a``) at the loop's speed (complex)
+    Be: np.ndarray | None = None
+    De: np.ndarray | None = None
 
 
-def _row(plant, name, dp, Nt, held):
-    """State row of a measured quantity (acceleration: with the held forces' feed-through)."""
+def _row(plant, name, dp, Nt, held, F):
+    """State row of a measured quantity (acceleration: with the held forces' feed-through) and
+    its feed-through of the excitations ``F`` (n, ne) at the sample instant."""
     kind, row, order, _ = quantity(plant, name)
     if kind != "row":
         raise ModelError(f"{name!r} is a force, not a measured quantity")
     n, N = plant.n, 2 * plant.n
     out = np.zeros(Nt)
+    through = np.zeros(F.shape[1], complex)
     if order == 0:
         out[:n] = row
     elif order == 1:
@@ -68,7 +74,8 @@ def _row(plant, name, dp, Nt, held):
         P = np.array([a.force_vector for a in plant.actuators]).reshape(-1, n).T
         out[:N] = row @ dp.accel_state
         out[held] = row @ dp.accel_force @ P
-    return out
+        through = row @ dp.accel_force @ F
+    return out, through
 
 
 def loop_with_input(loop: SampledLoop, speed_rad_s: float, w_F: float, input_ids, output_names
@@ -84,29 +91,37 @@ def loop_with_input(loop: SampledLoop, speed_rad_s: float, w_F: float, input_ids
     Nt = N + na + sum(r[0].shape[0] for r in reals) + sum(delays)
     held = slice(N, N + na)
     A = np.zeros((Nt, Nt))
-    uX = np.zeros((na, Nt))                     # total force = uX X + S_h f
+    F = np.array([e.phasor(speed_rad_s) for e in p.excitations]).reshape(-1, p.n).T  # (n, ne)
+    ne = F.shape[1]
+    uX = np.zeros((na, Nt))                     # total force = uX X + ue a + S_h f
+    ue = np.zeros((na, ne), complex)
+    Be = np.zeros((Nt, ne), complex)
     k = N + na
     for c, (Ac, Bc, Cc, Dc), d in zip(ctrl, reals, delays):
         tf = loop.controllers[c]
         act = p.actuator(c)
-        mX = np.zeros(Nt)
-        mX[:] = _row(p, f"foot_{c}_{'dva'[FEEDBACK_ORDER[tf.feedback]]}{act.axis}", dp, Nt, held)
+        mX, me = _row(p, f"foot_{c}_{'dva'[FEEDBACK_ORDER[tf.feedback]]}{act.axis}", dp, Nt,
+                      held, F)
         nc = Ac.shape[0]
         xi = slice(k, k + nc)
         if d:
             w0 = k + nc
             A[w0] = mX
+            Be[w0] = me
             for j in range(1, d):
                 A[w0 + j, w0 + j - 1] = 1.0
             tX = np.zeros(Nt)
             tX[w0 + d - 1] = 1.0
+            te = np.zeros(ne, complex)
         else:
-            tX = mX
+            tX, te = mX, me
         A[xi, xi] = Ac
         A[xi] += np.outer(Bc, tX)
+        Be[xi] = np.outer(Bc, te)
         i = ids.index(c)
         uX[i, xi] = -Cc
         uX[i] -= Dc * tX
+        ue[i] = -Dc * te
         k += nc + d
     S = np.zeros((na, len(input_ids)))
     for j, a in enumerate(input_ids):
@@ -117,8 +132,12 @@ def loop_with_input(loop: SampledLoop, speed_rad_s: float, w_F: float, input_ids
     B = np.zeros((Nt, len(input_ids)))
     B[:N] = dp.Gamma_u @ S
     B[held] = S
-    C = np.array([_row(p, name, dp, Nt, held) for name in output_names]).reshape(-1, Nt)
-    return LoopWithInput(A, B, C, loop._n_drift())
+    Be[:N] = dp.Gamma_e + dp.Gamma_u @ ue
+    Be[held] = ue
+    rows = [_row(p, name, dp, Nt, held, F) for name in output_names]
+    C = np.array([r for r, _ in rows]).reshape(-1, Nt)
+    De = np.array([t for _, t in rows]).reshape(-1, ne)
+    return LoopWithInput(A, B, C, loop._n_drift(), Be, De)
 
 
 def _real(M: np.ndarray) -> np.ndarray:

@@ -1,0 +1,147 @@
+"""The harmonic controller with the dynamic feed-forward (``feedforward: dynamic``).
+
+As :class:`~rotor_avc.harmonic.block.HarmonicController` adapting in the excitations, but the
+forces are those of the internal loop (:mod:`.internal_model`) run on the excitation estimate
+``C``: per block of ``refresh_samples`` samples its phasors and transient, and the model's
+predicted sensor signals, which are subtracted from the measured ones before demodulation. The
+demodulated residual ``E = H (C_true - C)`` (the loop's disturbance model ``H``, as seen
+without the internal loop's forces) drives the block's law on ``H``; a new estimate acts from
+the next block on.
+
+Limits (anti-windup): at each block's start, when the force phasor's peak plus the block's
+largest transient force (or the corresponding slopes) exceeds ``force_limit_n`` (or
+``rate_limit_n_per_s``), the estimate and the internal state are scaled down together -- the
+internal loop then runs as if the estimate had been the scaled one all along, so forces,
+prediction and estimate stay consistent.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ModelError
+from .block import HarmonicController, HarmonicSettings
+from .influence import InfluenceSchedule
+from .internal_model import InternalLoop, InternalTables
+from .laws import update_matrices
+
+
+class DynamicHarmonicController(HarmonicController):
+    """``reset()`` / ``step(signals, angle, speed) -> forces`` (module docstring)."""
+
+    def __init__(self, schedule: InfluenceSchedule, sample_period_s: float,
+                 settings: HarmonicSettings, tables: InternalTables, name: str = "harmonic"):
+        if settings.adapt_in != "excitations" or settings.identify:
+            raise ModelError("the dynamic feed-forward adapts the excitation estimate on the "
+                             "model itself: it needs adapt_in excitations and no identification")
+        if tables.refresh != settings.refresh_samples or abs(
+                tables.sample_period_s - sample_period_s) > 1e-12 * sample_period_s:
+            raise ModelError("the internal-model tables were built for another refresh_samples "
+                             "or sample rate")
+        self._loop = InternalLoop(tables)
+        self._r = tables.refresh
+        super().__init__(schedule, sample_period_s, settings, name)
+
+    def reset(self) -> None:
+        super().reset()
+        self._loop.reset()
+        self._j = self._r
+        n, m = len(self.actuator_ids), len(self.sensors)
+        self._F = ([0.0] * n, [0.0] * n)
+        self._ftr = [[0.0] * n] * self._r
+        self._pred = [[0.0] * m] * self._r
+
+    @property
+    def state(self) -> dict:
+        out = super().state
+        out.update(j=self._j, internal=self._loop.state, F=self._F, ftr=self._ftr,
+                   pred=self._pred)
+        return out
+
+    def set_state(self, state: dict) -> None:
+        super().set_state(state)
+        self._loop.set_state(state["internal"])
+        self._j, self._F, self._ftr, self._pred = (int(state["j"]), state["F"], state["ftr"],
+                                                    state["pred"])
+
+    def step(self, signals, angle: float, speed: float) -> list[float]:
+        """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
+        if not self._counted_on(speed):
+            return self._zero
+        j = self._j
+        if j >= self._r:
+            self._start_block(angle, speed)
+            j = 0
+        self._j = j + 1
+        c = math.cos(angle)
+        s = math.sin(angle)
+        w = speed * self.sample_period_s
+        cw, sw = c * w, s * w
+        acc = self._acc
+        i = 0
+        for v, p in zip(signals, self._pred[j]):
+            d = v - p
+            acc[i] += d * cw
+            acc[i + 1] -= d * sw
+            i += 2
+        self._span += w
+        self._count += 1
+        every = self._every
+        if (self._count >= every) if every else (self._span >= 2 * math.pi):
+            self._update(signals)
+        re, im = self._F
+        return [a * c - b * s + t for a, b, t in zip(re, im, self._ftr[j])]
+
+    def _may_run(self, k: int, speed: float) -> bool:
+        was_on = self.mode != "off"
+        on = super()._may_run(k, speed)
+        if on != was_on:
+            self._loop.reset()
+            self._j = self._r
+            self._F = (self._zero, self._zero)
+        return on
+
+    def _start_block(self, angle: float, speed: float) -> None:
+        """The internal loop's next block: phasors from the estimate, limits, sequences."""
+        s = self.settings
+        self.U[0], F, ftr, pred = self._loop.advance(self.C, angle, speed)
+        if s.force_limit_n == math.inf and s.rate_limit_n_per_s == math.inf:
+            self._set_block(F, ftr, pred)
+            return
+        A = np.abs(F)
+        peak = A + np.abs(ftr).max(axis=0)
+        slope = speed * A + np.abs(np.diff(ftr, axis=0)).max(axis=0, initial=0.0) \
+            / self.sample_period_s
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = float(np.min(np.minimum(
+                np.where(peak > 0, s.force_limit_n / peak, 1.0),
+                np.where(slope > 0, s.rate_limit_n_per_s / slope, 1.0)), initial=1.0))
+        self.saturated = scale < 1.0
+        if self.saturated:
+            self._loop.scale(scale)
+            self.C *= scale
+            self.U *= scale
+            F, ftr, pred = F * scale, ftr * scale, pred * scale
+        self._set_block(F, ftr, pred)
+
+    def _set_block(self, F, ftr, pred) -> None:
+        self._F = (F.real.tolist(), F.imag.tolist())
+        self._ftr = ftr.tolist()
+        self._pred = pred.tolist()
+
+    def _update_excitations(self, e: np.ndarray, speed: float) -> None:
+        """Adapt the estimate on the disturbance model (the residual's map); it acts from the
+        next block on."""
+        s = self.settings
+        A_C, B = update_matrices(self.schedule.disturbance_at(speed), s.law, self.gain_at(speed),
+                                 effort_weight=s.effort_weight, leakage=s.leakage,
+                                 sensor_weights=s.sensor_weights)
+        self.C = A_C @ self.C + B @ e
+
+    def _limit(self, speed: float) -> None:
+        """Limits act at each block's start (:meth:`_start_block`)."""
+
+    def describe(self) -> str:
+        return super().describe() + (f", dynamic feed-forward (internal loop, blocks of "
+                                     f"{self._r} samples)")
