@@ -60,3 +60,22 @@ def test_signal_once_running(tmp_path, sig):
     check_clean(procs, sig, "once running")
     with BagReader(tmp_path / f"run_{sig.name}.mcap") as r:
         assert r.counts is not None
+
+
+def test_repeated_signals_while_shutting_down_are_ignored():
+    # the first signal asks for a stop; more arriving during the shutdown (a supervisor's
+    # terminate on top of the user's Ctrl-C) neither raise nor kill: exit status 0
+    import subprocess
+    import sys
+    code = ("import os, signal\n"
+            "from rotor_avc.nodes import signals\n"
+            "signals.running()\n"
+            "os.kill(os.getpid(), signal.SIGTERM)\n"
+            "assert signals.stop_requested()\n"
+            "signals.shutting_down()\n"
+            "for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGTERM):\n"
+            "    os.kill(os.getpid(), sig)\n"
+            "print('finished')\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "finished", done.stderr

@@ -77,7 +77,15 @@ def discretize_plant(plant: LinearPlant, speed_rad_s: float, w_F: float,
     aug = np.zeros((N + m, N + m))
     aug[:N, :N] = A
     aug[:N, N:] = Bu
-    E = scipy.linalg.expm(aug * T)
+    with np.errstate(all="ignore"):
+        E = scipy.linalg.expm(aug * T) if np.all(np.isfinite(aug)) else aug * np.nan
+    if not np.all(np.isfinite(E)):
+        raise ModelError(
+            f"{plant.name}: at {speed_rad_s / (2 * np.pi):.4g} Hz the model's exact "
+            f"discretisation over a {T:g} s sample overflows (a mode growing by orders of "
+            "magnitude per sample, or non-finite matrices) -- check the machine's parameters "
+            "(masses, stiffnesses, bearing load and clearance) for a value off by orders of "
+            "magnitude")
     Phi, Gamma_u = E[:N, :N], E[:N, N:]
     # sinusoid: expm([[A, B F], [0, j Omega]] T) top-right = int e^{A(T-tau)} B F e^{j Omega tau}
     excs = plant.excitations

@@ -388,10 +388,19 @@ def coefficient_table(bearing: JournalBearing, oil: Oil, load_n: float, speeds_r
 
     def g(eps):
         _, mu_req, temp = operating(eps)
-        return np.log(oil.dynamic_viscosity_pa_s(temp)) - np.log(mu_req)
+        with np.errstate(all="ignore"):
+            return np.log(oil.dynamic_viscosity_pa_s(temp)) - np.log(mu_req)
 
     lo, hi = TABLE_EPS_RANGE
     lo_v, hi_v = np.full((speeds.size, 1), lo), np.full((speeds.size, 1), hi)
+    for bound in (hi_v, lo_v):
+        bad = np.flatnonzero(~np.isfinite(g(bound)[:, 0]))
+        if bad.size:
+            raise ModelError(
+                f"at {speeds[bad[0]] * 30 / math.pi:.6g} rpm the film's heat balance leaves the "
+                "oil model's range (no finite viscosity at an eccentricity ratio of "
+                f"{bound[0, 0]}): load, speed or clearance far outside the bearing's design -- "
+                "check load, clearance, oil and the bearing's speed_range_rpm")
     for bound, sign, what in ((hi_v, -1, "above"), (lo_v, 1, "below")):
         bad = np.flatnonzero(sign * g(bound)[:, 0] > 0)
         if bad.size:

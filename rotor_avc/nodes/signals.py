@@ -39,6 +39,8 @@ _state = {"phase": "idle", "requested": False}
 
 
 def _handler(signum, frame):
+    if _state["phase"] == "shutting down":
+        return
     if _state["phase"] == "startup":
         sys.stdout.flush()
         os._exit(0)
@@ -66,10 +68,14 @@ def running() -> None:
 def shutting_down() -> None:
     """The node is shutting down: later signals are ignored, so that none can interrupt the
     shutdown (a bag being finished) or, arriving while the interpreter finalises (which resets
-    Python-level handlers to the default action), turn a clean exit into death by signal."""
+    Python-level handlers to the default action), turn a clean exit into death by signal. The
+    phase is set first and the signals are blocked while the dispositions change, so that a
+    signal arriving in between is neither raised nor lost to the default action."""
+    _state["phase"] = "shutting down"
+    signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
     for sig in SIGNALS:
         signal.signal(sig, signal.SIG_IGN)
-    _state["phase"] = "shutting down"
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, SIGNALS)
 
 
 def stop_requested() -> bool:
