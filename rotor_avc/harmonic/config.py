@@ -42,7 +42,9 @@
 
 ``gain: auto`` picks, at speeds 8 % apart, the largest of :data:`AUTO_GAINS` whose exact
 one-revolution loop (:func:`rotor_avc.harmonic.lti.gain_schedule`, on the unperturbed
-model) contracts about as fast as the best; the block uses the nearest speed's gain.
+model; with ``feedforward: dynamic`` the estimate's own loop,
+:func:`rotor_avc.harmonic.lti.excitation_loop_poles`) contracts about as fast as the best; the
+block uses the nearest speed's gain.
 
 The influence matrix is the model's sampled-loop transfer with the machine's feedback
 controllers closed (:mod:`rotor_avc.harmonic.influence`), on the run's damping rule.
@@ -176,6 +178,9 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     excitations = settings.adapt_in == "excitations"
     if excitations and sorted(harmonics) != [1]:
         raise sec.error("adapt_in", "excitations act at 1x only", fix="use harmonics: [1]")
+    dynamic = sec.choice("feedforward", FEEDFORWARDS, default="quasi_static") == "dynamic"
+    if dynamic:
+        _check_dynamic(sec, inf, settings)
     try:
         schedule = model_schedule(loop, sensors, actuators, sorted(harmonics),
                                   schedule_speeds(start, max_speed_rad_s, rel_step), w_F,
@@ -188,12 +193,13 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
         n = max(int(math.ceil(math.log(max_speed_rad_s / start) / math.log1p(AUTO_GAIN_STEP))), 1)
         speeds, gains = gain_schedule(loop, schedule, settings,
                                       [start * (max_speed_rad_s / start) ** (i / n)
-                                       for i in range(n + 1)], AUTO_GAINS, w_F)
+                                       for i in range(n + 1)], AUTO_GAINS, w_F,
+                                      excitation_loop=dynamic)
         settings = replace(settings, gain_speeds_rad_s=speeds, gain_values=gains)
     schedule = schedule.perturbed(inf.number("phase_error_deg", 0.0),
                                   inf.number("magnitude_factor", 1.0, positive=True))
-    if sec.choice("feedforward", FEEDFORWARDS, default="quasi_static") == "dynamic":
-        block = _dynamic_block(sec, inf, loop, schedule, sample_period_s, settings, w_F)
+    if dynamic:
+        block = _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F)
     elif sec.has("feedforward_effort"):
         raise sec.error("feedforward_effort", "weights the internal loop of feedforward: "
                         "dynamic only", fix="add feedforward: dynamic, or drop it")
@@ -202,10 +208,8 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     return WithRunout(block, terms) if terms else block
 
 
-def _dynamic_block(sec, inf, loop, schedule, sample_period_s, settings, w_F):
-    """The block with the dynamic feed-forward (:mod:`.dynamic_block`), its settings checked."""
-    from .dynamic_block import DynamicHarmonicController
-    from .internal_model import DEFAULT_EFFORT, internal_tables
+def _check_dynamic(sec, inf, settings) -> None:
+    """ConfigError for a setting the dynamic feed-forward cannot run with."""
     if settings.adapt_in != "excitations":
         raise sec.error("feedforward", "dynamic runs the internal loop on the excitation "
                         "estimate", fix="add adapt_in: excitations, or use feedforward: "
@@ -218,6 +222,12 @@ def _dynamic_block(sec, inf, loop, schedule, sample_period_s, settings, w_F):
                         "identification or perturbation",
                         fix="drop identification and influence.phase_error_deg / "
                         "magnitude_factor, or use feedforward: quasi_static")
+
+
+def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F):
+    """The block with the dynamic feed-forward (:mod:`.dynamic_block`)."""
+    from .dynamic_block import DynamicHarmonicController
+    from .internal_model import DEFAULT_EFFORT, internal_tables
     effort = sec.number("feedforward_effort", DEFAULT_EFFORT, positive=True)
     try:
         tables = internal_tables(loop, schedule.actuators, schedule.sensors,

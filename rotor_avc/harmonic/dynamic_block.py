@@ -5,8 +5,9 @@ forces are those of the internal loop (:mod:`.internal_model`) run on the excita
 ``C``: per block of ``refresh_samples`` samples its phasors and transient, and the model's
 predicted sensor signals, which are subtracted from the measured ones before demodulation. The
 demodulated residual ``E = H (C_true - C)`` (the loop's disturbance model ``H``, as seen
-without the internal loop's forces) drives the block's law on ``H``; a new estimate acts from
-the next block on.
+without the internal loop's forces) drives the block's law on ``H``; a new estimate starts a
+new block at the next sample (the loop that :func:`.lti.excitation_loop_poles` analyses, and
+``gain: auto`` follows).
 
 Limits (anti-windup): at each block's start, when the force phasor's peak plus the block's
 largest transient force (or the corresponding slopes) exceeds ``force_limit_n`` (or
@@ -47,6 +48,7 @@ class DynamicHarmonicController(HarmonicController):
         super().reset()
         self._loop.reset()
         self._j = self._r
+        self._restart = False
         n, m = len(self.actuator_ids), len(self.sensors)
         self._F = ([0.0] * n, [0.0] * n)
         self._ftr = [[0.0] * n] * self._r
@@ -55,23 +57,23 @@ class DynamicHarmonicController(HarmonicController):
     @property
     def state(self) -> dict:
         out = super().state
-        out.update(j=self._j, internal=self._loop.state, F=self._F, ftr=self._ftr,
-                   pred=self._pred)
+        out.update(j=self._j, restart=self._restart, internal=self._loop.state, F=self._F,
+                   ftr=self._ftr, pred=self._pred)
         return out
 
     def set_state(self, state: dict) -> None:
         super().set_state(state)
         self._loop.set_state(state["internal"])
-        self._j, self._F, self._ftr, self._pred = (int(state["j"]), state["F"], state["ftr"],
-                                                    state["pred"])
+        self._j, self._restart, self._F, self._ftr, self._pred = (
+            int(state["j"]), bool(state["restart"]), state["F"], state["ftr"], state["pred"])
 
     def step(self, signals, angle: float, speed: float) -> list[float]:
         """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
         if not self._counted_on(speed):
             return self._zero
         j = self._j
-        if j >= self._r:
-            self._start_block(angle, speed)
+        if j >= self._r or self._restart:
+            self._start_block(angle, speed, j)
             j = 0
         self._j = j + 1
         c = math.cos(angle)
@@ -102,10 +104,11 @@ class DynamicHarmonicController(HarmonicController):
             self._F = (self._zero, self._zero)
         return on
 
-    def _start_block(self, angle: float, speed: float) -> None:
+    def _start_block(self, angle: float, speed: float, elapsed: int) -> None:
         """The internal loop's next block: phasors from the estimate, limits, sequences."""
         s = self.settings
-        self.U[0], F, ftr, pred = self._loop.advance(self.C, angle, speed)
+        self._restart = False
+        self.U[0], F, ftr, pred = self._loop.advance(self.C, angle, speed, elapsed)
         if s.force_limit_n == math.inf and s.rate_limit_n_per_s == math.inf:
             self._set_block(F, ftr, pred)
             return
@@ -131,13 +134,14 @@ class DynamicHarmonicController(HarmonicController):
         self._pred = pred.tolist()
 
     def _update_excitations(self, e: np.ndarray, speed: float) -> None:
-        """Adapt the estimate on the disturbance model (the residual's map); it acts from the
-        next block on."""
+        """Adapt the estimate on the disturbance model (the residual's map); a new block starts
+        with it at the next sample."""
         s = self.settings
         A_C, B = update_matrices(self.schedule.disturbance_at(speed), s.law, self.gain_at(speed),
                                  effort_weight=s.effort_weight, leakage=s.leakage,
                                  sensor_weights=s.sensor_weights)
         self.C = A_C @ self.C + B @ e
+        self._restart = True
 
     def _limit(self, speed: float) -> None:
         """Limits act at each block's start (:meth:`_start_block`)."""

@@ -26,7 +26,7 @@ Me C``) and the transient ``x~``, which follows ``A_c``: the block's forces and 
 are ``Re{(U - K X_ss) e^{j theta_k}} - K A_c^i x~`` and ``Re{(Cy X_ss + De C) e^{j theta_k}} + Cy
 A_c^i x~`` (tables of ``K A_c^i``, ``Cy A_c^i`` and ``A_c^r`` per node), and at the block's end
 ``x~ <- A_c^r x~ + Re{(X_ss,old - X_ss,new) e^{j theta}}`` keeps the state continuous through
-the change of speed and estimate. Numpy runs once per block; per sample the block adds one
+the change of speed and estimate (a new estimate starts a block at once, after ``A_c^i``). Numpy runs once per block; per sample the block adds one
 stored force and signal value per channel.
 """
 from __future__ import annotations
@@ -51,8 +51,8 @@ DISCOUNT = 1.0 + 1e-6
 
 @dataclass(frozen=True, eq=False)
 class InternalTables:
-    """Per node ``s`` of ``speeds_rad_s``: the block transition ``Ar[s] = A_c^r`` and the
-    transient rows ``W[s, i] = [-K A_c^i; Cy A_c^i]`` (N forces, M sensors) for ``i < r``, used
+    """Per node ``s`` of ``speeds_rad_s``: the internal loop's transition ``Ac[s]``, the block
+    transition ``Ar[s] = A_c^r`` and the transient rows ``W[s, i] = [-K A_c^i; Cy A_c^i]`` (N forces, M sensors) for ``i < r``, used
     at the nearest node; and, per unit estimate ``C`` and interpolated in speed, the phasors
     ``Uc`` (``U = -Uc C``), the steady state ``Xc``, force phasor ``Fc`` (``U - K X_ss``) and
     sensor phasor ``Yc`` (zero where ``Cy Mu`` has full row rank)."""
@@ -60,6 +60,7 @@ class InternalTables:
     speeds_rad_s: np.ndarray
     sample_period_s: float
     refresh: int
+    Ac: np.ndarray
     Ar: np.ndarray
     W: np.ndarray
     Uc: np.ndarray
@@ -102,7 +103,7 @@ def internal_tables(loop, actuators, sensors, speeds_rad_s, refresh: int, w_F=No
     T = loop.sample_period_s
     speeds = np.asarray(speeds_rad_s, dtype=float)
     weights = np.ones(len(sensors)) if sensor_weights is None else np.asarray(sensor_weights)
-    out = {k: [] for k in ("Ar", "W", "Uc", "Xc", "Fc", "Yc")}
+    out = {k: [] for k in ("Ac", "Ar", "W", "Uc", "Xc", "Fc", "Yc")}
     for speed in speeds:
         wf = float(loop.plant.forced_damping_frequency(speed)) if w_F is None else w_F
         lwi = loop_with_input(loop, speed, wf, actuators, sensors)
@@ -129,6 +130,7 @@ def internal_tables(loop, actuators, sensors, speeds_rad_s, refresh: int, w_F=No
                                           np.hstack([B, lwi.Be])), [B.shape[1]], axis=1)
         Uc = np.linalg.pinv(Cy @ Xu) @ (Cy @ Xe + lwi.De)
         Xc = Xe - Xu @ Uc
+        out["Ac"].append(Ac)
         out["Ar"].append(np.linalg.matrix_power(Ac, refresh))
         out["W"].append(W)
         out["Uc"].append(Uc)
@@ -163,13 +165,18 @@ class InternalLoop:
             raise ModelError("internal-model state does not fit the tables")
         self.x, self.X_ss, self.node = x.copy(), X_ss.copy(), state["node"]
 
-    def advance(self, C: np.ndarray, angle: float, speed_rad_s: float
+    def advance(self, C: np.ndarray, angle: float, speed_rad_s: float, elapsed: int
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """End the running block, start one at this sample with the estimate ``C``: ``(U,
-        force phasors (N,), transient forces (r, N), predicted signals (r, M))``."""
+        """End the running block after its ``elapsed`` samples (``r``, or fewer when a new
+        estimate starts a block early), start one at this sample with the estimate ``C``:
+        ``(U, force phasors (N,), transient forces (r, N), predicted signals (r, M))``."""
         t = self.tables
         if self.node is not None:
-            self.x = t.Ar[self.node] @ self.x
+            if elapsed == t.refresh:
+                self.x = t.Ar[self.node] @ self.x
+            else:
+                for _ in range(elapsed):
+                    self.x = t.Ac[self.node] @ self.x
         Uc, Xc, Fc, Yc = t.steady_all(speed_rad_s)
         X_ss = Xc @ C
         self.x += ((self.X_ss - X_ss) * np.exp(1j * angle)).real

@@ -211,6 +211,50 @@ def harmonic_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, actuators,
     return SampledPoles(float(speed_rad_s), float(w_F), P * T, z[keep], z[idx])
 
 
+def excitation_loop_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, sensors,
+                          disturbance: np.ndarray, law: str, gain: float, *,
+                          effort_weight: float = 0.0, leakage: float = 0.0, sensor_weights=None,
+                          lwi: LoopWithInput | None = None) -> SampledPoles:
+    """Poles of the one-revolution map of the excitation estimate's adaptation under the
+    dynamic feed-forward (:mod:`.internal_model`): the residual is the loop's own response to
+    the estimate's error, ``eps+ = A eps - Re{Be C e^{j theta_k}}``, ``e = Cy eps - Re{De C
+    e^{j theta_k}}`` (the true excitation drops out of this homogeneous map), demodulated over
+    the revolution, and ``C <- A_C C + B_C E`` by the law on ``disturbance`` (the model's
+    ``H``). State ``[eps; acc_re; acc_im; C_re; C_im]``, in the block's order per sample; an
+    exact model is assumed (the block's prediction removes the internal loop's own response)."""
+    T = loop.sample_period_s
+    P = samples_per_revolution(speed_rad_s, T)
+    lwi = lwi or loop_with_input(loop, speed_rad_s, w_F, [], sensors)
+    Nt, M, ne = lwi.A.shape[0], len(sensors), lwi.Be.shape[1]
+    xs, ar, ai, cs = (slice(0, Nt), slice(Nt, Nt + M), slice(Nt + M, Nt + 2 * M),
+                      slice(Nt + 2 * M, Nt + 2 * M + 2 * ne))
+    A_C, B_C = update_matrices(disturbance, law, gain, effort_weight=effort_weight,
+                               leakage=leakage, sensor_weights=sensor_weights)
+    upd_c, upd_acc = _real(A_C), _real(B_C) * 2.0 / (P * speed_rad_s * T)
+    w = speed_rad_s * T
+    Br, Bi, Dr, Di = lwi.Be.real, lwi.Be.imag, lwi.De.real, lwi.De.imag
+    Phi = np.eye(Nt + 2 * M + 2 * ne)
+    for k in range(P):
+        c, s = np.cos(speed_rad_s * T * k), np.sin(speed_rad_s * T * k)
+        # Re{Q C e^{j theta}} = [Qr c - Qi s, -Qr s - Qi c] [C_re; C_im]
+        Jx = -np.hstack([Br * c - Bi * s, -Br * s - Bi * c])
+        Je = -np.hstack([Dr * c - Di * s, -Dr * s - Di * c])
+        e = lwi.C @ Phi[xs] + Je @ Phi[cs]
+        Phi[ar] += w * c * e
+        Phi[ai] -= w * s * e
+        Phi[xs] = lwi.A @ Phi[xs] + Jx @ Phi[cs]
+        if k == P - 1:
+            Phi[cs] = upd_c @ Phi[cs] + upd_acc @ np.vstack([Phi[ar], Phi[ai]])
+            Phi[ar] = 0.0
+            Phi[ai] = 0.0
+    z = scipy.linalg.eigvals(Phi)
+    idx = np.argsort(np.abs(z - 1.0))[:lwi.n_drift]
+    idx = idx[np.abs(z[idx] - 1.0) <= HELD_TOL ** 0.5]
+    keep = np.ones(z.size, bool)
+    keep[idx] = False
+    return SampledPoles(float(speed_rad_s), float(w_F), P * T, z[keep], z[idx])
+
+
 @dataclass(frozen=True)
 class RobustnessMap:
     """Spectral radius per (phase error, magnitude factor, gain): quasi-steady (laws only) and,
@@ -262,24 +306,33 @@ def robustness_map(G_true: np.ndarray, law: str, phase_error_deg, magnitude_fact
     return RobustnessMap(law, ph, mg, gn, qs, ex)
 
 
-def gain_schedule(loop: SampledLoop, schedule, settings, speeds_rad_s, candidates, w_F=None
-                  ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+def gain_schedule(loop: SampledLoop, schedule, settings, speeds_rad_s, candidates, w_F=None,
+                  excitation_loop: bool = False) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """Per speed (moved to the nearest whole number of samples per revolution) the largest
     candidate gain whose one-revolution map contracts within 0.1 % of the best candidate's
     (the plant's own slow modes bound every candidate alike) and by at least 0.1 % per
-    revolution; else the smallest candidate; ``(speeds, gains)``."""
+    revolution; else the smallest candidate; ``(speeds, gains)``. ``excitation_loop``: the map
+    of the dynamic feed-forward's estimate (:func:`excitation_loop_poles`) instead of the
+    phasors' (:func:`harmonic_poles`)."""
     T = loop.sample_period_s
+    kw = dict(effort_weight=settings.effort_weight, leakage=settings.leakage,
+              sensor_weights=settings.sensor_weights)
     out_s, out_g = [], []
     for speed in speeds_rad_s:
         P = max(int(round(2 * np.pi / (speed * T))), 3)
         w = 2 * np.pi / (P * T)
         wf = w if w_F is None else w_F
-        lwi = loop_with_input(loop, w, wf, schedule.actuators, schedule.sensors)
-        radii = [harmonic_poles(loop, w, wf, schedule.actuators, schedule.sensors,
-                                schedule.harmonics, schedule.at(w), settings.law, g,
-                                effort_weight=settings.effort_weight, leakage=settings.leakage,
-                                sensor_weights=settings.sensor_weights,
-                                update_every_samples=0, lwi=lwi).max_abs_z for g in candidates]
+        if excitation_loop:
+            lwi = loop_with_input(loop, w, wf, [], schedule.sensors)
+            radii = [excitation_loop_poles(loop, w, wf, schedule.sensors,
+                                           schedule.disturbance_at(w), settings.law, g,
+                                           lwi=lwi, **kw).max_abs_z for g in candidates]
+        else:
+            lwi = loop_with_input(loop, w, wf, schedule.actuators, schedule.sensors)
+            radii = [harmonic_poles(loop, w, wf, schedule.actuators, schedule.sensors,
+                                    schedule.harmonics, schedule.at(w), settings.law, g,
+                                    update_every_samples=0, lwi=lwi, **kw).max_abs_z
+                     for g in candidates]
         best = min(radii)
         ok = [g for g, r in zip(candidates, radii) if r <= min(best + 1e-3, 1 - 1e-3)]
         out_s.append(w)
