@@ -229,12 +229,17 @@ TWO_X = ("harmonics: [1, 2], runout: [{sensor: bearing_D_vz, order: 2, magnitude
          "phase_deg: 30.0}, {sensor: bearing_N_vz, order: 2, magnitude: 1.0e-4}]")
 
 
+DYNAMIC = "adapt_in: excitations, refresh_samples: 25, feedforward: dynamic"
+
+
 @pytest.mark.parametrize("machine, extra", [("foot_mount_case2", ""), ("foot_mount_case3", ""),
-                                            ("foot_mount_case2", TWO_X)])
+                                            ("foot_mount_case2", TWO_X),
+                                            ("foot_mount_case3", DYNAMIC)])
 def test_harmonic_node_in_lockstep_equals_in_process(tmp_path, machine, extra):
     """The harmonic_controller node (bearing-housing 1x, 50 Hz, updates every revolution from
-    the start) alone (case 2), beside the foot controllers (case 3), and with the 2x as well
-    against a 2x sensor runout (case 2): bit for bit the in-process loop with the same block."""
+    the start) alone (case 2), beside the foot controllers (case 3), with the 2x as well
+    against a 2x sensor runout (case 2), and with the dynamic feed-forward beside the foot
+    controllers (case 3): bit for bit the in-process loop with the same block."""
     from rotor_avc.config import find_config
     from rotor_avc.nodes.harmonic_controller import HarmonicControllerNode
     path = tmp_path / f"harmonic_{machine}.yaml"
@@ -263,5 +268,5 @@ simulation:
     for ch, values in ref.channels.items():
         assert np.array_equal(ts[ch], values), ch
     assert block.n_updates >= 9 and np.max(np.abs(ref["actuator_DL_fz"])) > 0
-    assert np.all(np.abs(block.U) > 0) and len(block.harmonics) == (2 if extra else 1)
+    assert np.all(np.abs(block.U) > 0) and len(block.harmonics) == (2 if extra == TWO_X else 1)
     assert not plant.fault_log
