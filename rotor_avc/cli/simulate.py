@@ -50,15 +50,15 @@ def run(args) -> int:
         """The blocks, each checked for overflow (the growth is judged at the end); after the
         first, the whole run's time and output size are estimated and refused above the
         limits."""
-        done = 0
+        first = True
         for ts in blocks:
             why = watch.feed(ts)
             if why:
                 raise DivergenceError(f"{why} -- nothing written")
             yield ts
-            if done == 0:
+            if first:
                 _check_budget(ts, scenario.n_steps, time.perf_counter() - t0, partial)
-            done += len(ts)
+                first = False
     try:
         with interrupt_flag() as interrupted, np.errstate(over="ignore", invalid="ignore"):
             blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,

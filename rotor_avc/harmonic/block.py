@@ -247,10 +247,7 @@ class HarmonicController:
                 acc[i] += v * cw
                 acc[i + 1] -= v * sw
                 i += 2
-        self._span += w
-        self._count += 1
-        every = self._every
-        if (self._count >= every) if every else (self._span >= TWO_PI):
+        if self._window_done(w):
             self._update(signals)
         elif self._refresh:
             self._since_refresh += 1
@@ -273,6 +270,13 @@ class HarmonicController:
         if self.mode == "off" or not self._min_speed <= speed <= self._max_speed:
             return self._may_run(k, speed)
         return True
+
+    def _window_done(self, w: float) -> bool:
+        """Count a sample of angle step ``w`` into the window; True at its last sample."""
+        self._span += w
+        self._count += 1
+        every = self._every
+        return (self._count >= every) if every else (self._span >= TWO_PI)
 
     def _may_run(self, k: int, speed: float) -> bool:
         """Switch on (from zero) or off at this sample; True while on."""

@@ -87,10 +87,7 @@ class DynamicHarmonicController(HarmonicController):
             acc[i] += d * cw
             acc[i + 1] -= d * sw
             i += 2
-        self._span += w
-        self._count += 1
-        every = self._every
-        if (self._count >= every) if every else (self._span >= 2 * math.pi):
+        if self._window_done(w):
             self._update(signals)
         re, im = self._F
         return [a * c - b * s + t for a, b, t in zip(re, im, self._ftr[j])]

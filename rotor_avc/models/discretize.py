@@ -77,9 +77,12 @@ def discretize_plant(plant: LinearPlant, speed_rad_s: float, w_F: float,
     aug = np.zeros((N + m, N + m))
     aug[:N, :N] = A
     aug[:N, N:] = Bu
-    with np.errstate(all="ignore"):
-        E = scipy.linalg.expm(aug * T) if np.all(np.isfinite(aug)) else aug * np.nan
-    if not np.all(np.isfinite(E)):
+    finite = bool(np.all(np.isfinite(aug)))
+    if finite:
+        with np.errstate(all="ignore"):
+            E = scipy.linalg.expm(aug * T)
+        finite = bool(np.all(np.isfinite(E)))
+    if not finite:
         raise ModelError(
             f"{plant.name}: at {speed_rad_s / (2 * np.pi):.4g} Hz the model's exact "
             f"discretisation over a {T:g} s sample overflows (a mode growing by orders of "

@@ -393,16 +393,16 @@ def coefficient_table(bearing: JournalBearing, oil: Oil, load_n: float, speeds_r
 
     lo, hi = TABLE_EPS_RANGE
     lo_v, hi_v = np.full((speeds.size, 1), lo), np.full((speeds.size, 1), hi)
-    for bound in (hi_v, lo_v):
-        bad = np.flatnonzero(~np.isfinite(g(bound)[:, 0]))
+    for bound, sign, what in ((hi_v, -1, "above"), (lo_v, 1, "below")):
+        g_bound = g(bound)[:, 0]
+        bad = np.flatnonzero(~np.isfinite(g_bound))
         if bad.size:
             raise ModelError(
                 f"at {speeds[bad[0]] * 30 / math.pi:.6g} rpm the film's heat balance leaves the "
                 "oil model's range (no finite viscosity at an eccentricity ratio of "
                 f"{bound[0, 0]}): load, speed or clearance far outside the bearing's design -- "
                 "check load, clearance, oil and the bearing's speed_range_rpm")
-    for bound, sign, what in ((hi_v, -1, "above"), (lo_v, 1, "below")):
-        bad = np.flatnonzero(sign * g(bound)[:, 0] > 0)
+        bad = np.flatnonzero(sign * g_bound > 0)
         if bad.size:
             raise ModelError(
                 f"at {speeds[bad[0]] * 30 / math.pi:.6g} rpm the bearing would run at an "
