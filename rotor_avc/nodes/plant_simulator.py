@@ -60,12 +60,13 @@ from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_
 from . import messages as m
 from . import taps
 from .lockstep import AnswerBook
-from .plant_params import (EXIT_RATE_NOT_HELD, EXIT_RECORDER_LOST, PARAMS, RATE_CHECK_OVERRUNS,
-                           RATE_CHECK_S)
+from .plant_params import EXIT_RECORDER_LOST, PARAMS
+from .plant_realtime import RealtimeMixin
+from .plant_recorder_window import RecorderWindowMixin
 from .runtime import check_node_design, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming, Schedule
 
-class PlantSimulator(Node):
+class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
     """The plant node (see the module docstring)."""
 
     def __init__(self, name: str = "plant_simulator", **kwargs):
@@ -215,33 +216,6 @@ class PlantSimulator(Node):
             return False
         return not self._unrecorded()
 
-    def _unrecorded(self) -> list[str]:
-        """Topics of the run the ``wait_for_recorder`` node does not receive yet: it has no
-        subscription on them, or (the plant's own topics) a listed subscription is not matched
-        to the plant's publisher yet. Empty when no recorder is awaited."""
-        name = self.p["wait_for_recorder"]
-        if not name:
-            return []
-        ns = self.p["namespace"]
-        own = [pub for pub, _, _ in self.meas] + [self.pub_joint, self.pub_clock, self.pub_obs]
-        others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.driven]
-        if self.p["balancer"]:
-            others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
-        if self.p["harmonic"]:
-            others += [self.harmonic_topic, m.topic("harmonic/status", ns)]
-        missing = []
-        if self.count_publishers(self.progress_topic) < 1:
-            return ["(no recorder progress yet)"]
-        for topic, pub in [(p.topic_name, p) for p in own] + [(t, None) for t in others]:
-            if taps.tapped(topic) and self.count_publishers(topic) == taps.local_publishers(topic):
-                continue                       # a recorder composed into this process has it
-            infos = self.get_subscriptions_info_by_topic(topic)
-            names = {i.node_name for i in infos} | {
-                i.node_namespace.rstrip("/") + "/" + i.node_name for i in infos}
-            if name not in names or (pub is not None and pub.get_subscription_count() < len(infos)):
-                missing.append(topic)
-        return missing
-
     def _start(self) -> None:
         sc = self.scenario
         # the periodic steady state depends on the controllers: the plant builds its own copies
@@ -254,68 +228,6 @@ class PlantSimulator(Node):
             self.schedule.begin(time.perf_counter())
             return                            # the real-time tick takes sample 0 when due
         self._publish_sample()
-
-    # -- the recorder handshake (lockstep) -------------------------------------------------------
-    def _sent(self) -> dict[str, int]:
-        """Messages of the run per topic the recorder must take: what the plant published on
-        its lockstep topics and the answers it received."""
-        sent = {pub.topic_resolved: pub.count for pub, _, _ in self.meas}
-        for pub in (self.pub_joint, self.pub_clock, self.pub_obs):
-            sent[pub.topic_resolved] = pub.count
-        sent.update(self.received)
-        return sent
-
-    def _recorder_lag(self) -> int:
-        """Messages of the most lagging topic not yet taken by the recorder."""
-        taken = self.recorder_taken
-        return max(n - taken.get(topic, 0) for topic, n in self._sent().items())
-
-    def _on_progress(self, data: bytes) -> None:
-        try:
-            label, values = m.labelled_array(data)
-            names = label.split(",")
-            if len(names) != len(values) or names[:1] != ["time_s"]:
-                raise m.MessageError(f"labelled {label!r} with {len(values)} values")
-        except m.MessageError as exc:
-            self._fault(f"recorder progress ignored: {exc}")
-            return
-        self.recorder_taken = {n: int(v) for n, v in zip(names[1:], values[1:])}
-        lag = self._recorder_lag()
-        self.allowance = self.p["recorder_window"] - lag
-        if self.draining and lag <= 0:
-            self.draining = False
-            self._finish()
-        elif self.recorder_lagging and self.allowance > 0:
-            self.recorder_lagging = False
-            self.stalled_since = None
-            self._publish_sample()
-
-    def _recorder_holds_back(self) -> bool:
-        """Lockstep with a recorder: True (and the plant waits for its progress) when the next
-        sample would put the plant more than ``recorder_window`` samples ahead of it."""
-        if not self.p["wait_for_recorder"] or self.p["mode"] != "lockstep":
-            return False
-        if self.allowance > 0:
-            return False
-        self.recorder_lagging = True
-        self.stalled_since = time.monotonic()
-        return True
-
-    def _check_recorder(self, now: float) -> None:
-        """While waiting for the recorder: end the run when it is gone or takes nothing."""
-        gone = self.count_publishers(self.progress_topic) < 1
-        if gone or now - self.stalled_since > self.p["recorder_timeout_s"]:
-            sent, taken = self._sent(), self.recorder_taken
-            short = {t: n - taken.get(t, 0) for t, n in sent.items() if n > taken.get(t, 0)}
-            why = ("disappeared" if gone else
-                   f"took nothing for {self.p['recorder_timeout_s']:g} s")
-            self._fault(f"recorder {self.p['wait_for_recorder']!r} {why} at sample {self.k} of "
-                        f"{self.n_steps}: its bag lacks " + ", ".join(
-                            f"{n} message(s) of {t}" for t, n in sorted(short.items()))
-                        + "; ending the run (exit status 1)")
-            self.exit_status = EXIT_RECORDER_LOST
-            self.recorder_lagging = self.draining = False
-            self._finish(complete=False)
 
     # -- lockstep -------------------------------------------------------------------------------
     def _publish_sample(self, begin: bool = True) -> None:
@@ -443,59 +355,6 @@ class PlantSimulator(Node):
             if self.finished or self.recorder_lagging or self.draining or not self.book.ready():
                 break
             self._advance()
-
-    # -- real time ------------------------------------------------------------------------------
-    def _tick_realtime(self) -> None:
-        """Take every sample that is due (absolute schedule, see the module docstring)."""
-        if not self.started or self.finished:
-            return
-        now = time.perf_counter()
-        while not self.finished and self.schedule.due(self.k) <= now:
-            self._realtime_sample(now)
-            now = time.perf_counter()
-
-    def _realtime_sample(self, now: float) -> None:
-        """Sample k in real time: the latest forces held, measurements published, one step."""
-        wall = time.monotonic()
-        for foot, t_last in self.last_force_time.items():
-            if self.book.expire(foot, wall - (self.t_start if t_last is None else t_last)):
-                self._fault(f"{foot}: {self.book.reason(foot)}")
-        u = forces_from_answers(self.stepper, {f: self.book.held(f, 0.0) for f in self.driven})
-        self.schedule.record(self.k, now)
-        self.timing.start()
-        self._publish_sample()
-        self.Y[self.k] = self.y
-        self.U[self.k] = u
-        self.y = self.stepper.step(u)
-        self.k += 1
-        self.timing.stop()
-        if self.k >= self.n_steps:
-            self._finish()
-        elif self.k == self.rate_check_samples:
-            self._check_rate()
-
-    @property
-    def rate_check_samples(self) -> int:
-        return max(1, min(self.n_steps - 1, int(round(RATE_CHECK_S / self.T))))
-
-    def _check_rate(self) -> None:
-        """Real time, after the first RATE_CHECK_S: does the graph hold the rate?"""
-        st = self.schedule.summary()
-        share = self.schedule.overruns / max(self.schedule.n, 1)
-        if share <= RATE_CHECK_OVERRUNS:
-            return
-        text = (f"real time at {1 / self.T:g} Hz is not held here: {100 * share:.0f} % of the "
-                f"first {self.schedule.n} samples came more than a period late (lateness p50 "
-                f"{1e6 * st['late_p50_s']:.0f} us, p99 {1e6 * st['late_p99_s']:.0f} us; tick "
-                f"{1e6 * self.timing.summary().get('exec_mean_s', 0.0):.0f} us of "
-                f"{1e6 * self.T:.0f} us) -- fix: a lower sample_rate_hz, a less loaded machine, "
-                "or lockstep mode")
-        if self.p["realtime_overload"] == "abort":
-            self._fault(text + "; ending the run (exit status 3)")
-            self.exit_status = EXIT_RATE_NOT_HELD
-            self._finish(complete=False)
-        else:
-            self._fault(text + "; going on (realtime_overload: warn)")
 
     # -- end, faults, diagnostics ---------------------------------------------------------------
     def _fault(self, text: str) -> None:
