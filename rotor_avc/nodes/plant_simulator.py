@@ -378,7 +378,7 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
             f"in {self.wall_s:.2f} s ({self.k / max(self.wall_s, 1e-9):.0f} samples/s); published "
             + ", ".join(f"{t} {n}" for t, n in sorted(sent.items())
                         if t not in self.received)
-            + (f"; the recorder took every message" if self.p["wait_for_recorder"]
+            + ("; the recorder took every message" if self.p["wait_for_recorder"]
                and complete and self.p["mode"] == "lockstep" else ""))
         if self.p["mode"] == "realtime":
             st = self.schedule.summary()
