@@ -82,15 +82,19 @@ class InternalTables:
         """One of the steady maps ``Uc``, ``Xc``, ``Fc``, ``Yc`` at this speed."""
         return interpolate(self.speeds_rad_s, getattr(self, name), speed_rad_s)
 
-    def steady_all(self, speed_rad_s: float) -> list[np.ndarray]:
-        """``[Uc, Xc, Fc, Yc]`` at this speed (:meth:`steady`, one table lookup)."""
-        return np.split(interpolate(self.speeds_rad_s, self._stacked, speed_rad_s),
-                        self._splits)
+    def steady_times(self, C: np.ndarray, speed_rad_s: float) -> list[np.ndarray]:
+        """``[Uc C, Xc C, Fc C, Yc C]`` at this speed (:meth:`steady`; one table lookup and one
+        product on the stacked maps)."""
+        v = interpolate(self.speeds_rad_s, self._stacked, speed_rad_s) @ C
+        return [v[s] for s in self._slices]
 
     def __post_init__(self):
         maps = (self.Uc, self.Xc, self.Fc, self.Yc)
+        ends = np.cumsum([m.shape[1] for m in maps])
         object.__setattr__(self, "_stacked", np.concatenate(maps, axis=1))
-        object.__setattr__(self, "_splits", np.cumsum([m.shape[1] for m in maps])[:-1])
+        object.__setattr__(self, "_slices", [slice(a, b) for a, b in zip([0, *ends[:-1]], ends)])
+        object.__setattr__(self, "_block_times_s",
+                           self.sample_period_s * np.arange(self.refresh))
 
 
 def internal_tables(loop, actuators, sensors, speeds_rad_s, refresh: int, w_F=None,
@@ -177,16 +181,15 @@ class InternalLoop:
             else:
                 for _ in range(elapsed):
                     self.x = t.Ac[self.node] @ self.x
-        Uc, Xc, Fc, Yc = t.steady_all(speed_rad_s)
-        X_ss = Xc @ C
+        UC, X_ss, F, Y = t.steady_times(C, speed_rad_s)
         self.x += ((self.X_ss - X_ss) * np.exp(1j * angle)).real
         self.X_ss = X_ss
         self.node = t.node(speed_rad_s)
         seq = t.W[self.node] @ self.x                                   # (r, N + M)
-        n = Uc.shape[0]
-        steps = np.exp(1j * (angle + speed_rad_s * t.sample_period_s * np.arange(t.refresh)))
-        y = seq[:, n:] + ((Yc @ C)[None, :] * steps[:, None]).real
-        return -Uc @ C, Fc @ C, seq[:, :n], y
+        n = UC.size
+        steps = np.exp(1j * (angle + speed_rad_s * t._block_times_s))
+        y = seq[:, n:] + (Y[None, :] * steps[:, None]).real
+        return -UC, F, seq[:, :n], y
 
     def scale(self, factor: float) -> None:
         """The whole internal trajectory times ``factor`` (as if the estimate had always been
