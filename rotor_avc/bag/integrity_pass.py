@@ -17,7 +17,7 @@ from mcap.records import (Channel, ChunkIndex, Footer, Metadata, MetadataIndex, 
 
 from . import records as R
 from .cdr import CdrCodec, CdrError, Layout
-from .integrity import IntegrityReport, TopicData
+from .integrity_report import IntegrityReport, TopicData
 from .integrity_summary import SummaryChecks
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .msgdefs import MsgDefError, parse_schema

@@ -7,7 +7,7 @@ from mcap.records import Statistics
 
 from . import records as R
 from .errors import BagError
-from .integrity import RESENDS_ALLOWED
+from .integrity_report import RESENDS_ALLOWED
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_counts, load_yaml
 from .rosbag2_info import check_rosbag2_info
 from .topics import SAMPLED, message_type
