@@ -20,7 +20,7 @@ setup(
         ("share/" + package_name + "/layouts",
          sorted(glob("layouts/*.json") + glob("layouts/*.xml"))),
     ],
-    package_data={package_name: []},
+    package_data={package_name: ["nodes/*.xml"]},   # the nodes' Fast DDS profile
     install_requires=[
         "setuptools",
         "numpy>=1.24",

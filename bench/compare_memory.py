@@ -8,9 +8,13 @@ and shaft angle continued) without ever holding more than 2 s in memory. Each co
 in its own process; its peak resident memory (``ru_maxrss``) and wall time are printed with the
 growth per second of run and the ratio streamed / in-memory at the same length.
 
+``--runup``: the recordings are run-ups instead (no dwells: the order tracking runs over
+windows of whole revolutions, streamed block by block), seed 000 case 3 at 1 kHz from 5 to
+60 Hz over the run's length, each simulated and written by ``rotor-avc simulate`` (streamed).
+
 Run: ``python bench/compare_memory.py`` (2, 10, 40 s), ``--long`` (2, 120, 600, 3600 s; the
 in-memory baseline only up to 120 s: beyond, it needs about 10 MB per second of run), or
-``--lengths 2 20``.
+``--lengths 2 20``; each with ``--runup``.
 """
 from __future__ import annotations
 
@@ -61,6 +65,21 @@ def write_recording(path: Path, duration_s: float) -> Path:
     return path
 
 
+def write_runup(path: Path, duration_s: float) -> Path:
+    """A ``duration_s`` run-up 5 -> 60 Hz at 1 kHz, simulated and written by ``rotor-avc
+    simulate`` (streamed block by block: its memory does not grow with the length)."""
+    data = load_yaml(find_config("foot_mount_case3"))
+    data["simulation"] = {"sample_rate_hz": 1000.0, "initial_state": "steady_state",
+                          "speed": {"type": "ramp", "start_hz": 5.0, "stop_hz": 60.0,
+                                    "duration_s": duration_s},
+                          "unbalance": {"static": {"magnitude": 1.0e-2, "phase_deg": 0.0}}}
+    config = path.with_suffix(".yaml")
+    config.write_text(json.dumps(data))
+    subprocess.run([sys.executable, "-m", "rotor_avc", "simulate", str(config), "--out", str(path),
+                    "--max-hours", "4"], check=True, capture_output=True)
+    return path
+
+
 def measure(path: Path, mode: str) -> dict:
     out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], capture_output=True,
                          text=True, check=True)
@@ -71,12 +90,14 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--long", action="store_true", help="2 s to 1 h")
     parser.add_argument("--lengths", type=float, nargs="+", help="run lengths in s")
+    parser.add_argument("--runup", action="store_true", help="run-ups instead of a held speed")
     args = parser.parse_args()
+    write = write_runup if args.runup else write_recording
     lengths = args.lengths or ([2.0, 120.0, 600.0, 3600.0] if args.long else [2.0, 10.0, 40.0])
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         for length in lengths:
-            path = write_recording(Path(folder) / f"run_{length:g}s.mcap", length)
+            path = write(Path(folder) / f"run_{length:g}s.mcap", length)
             row = {"length_s": length, "bag_mb": path.stat().st_size / 2 ** 20,
                    "streamed": measure(path, "streamed")}
             if length <= IN_MEMORY_UP_TO_S:

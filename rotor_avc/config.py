@@ -5,7 +5,10 @@ file it came from, so that any problem is reported as ``file: machine.stator_mas
 > 0 (got -5) -- fix: ...`` instead of a traceback from deep inside numpy.
 
 Files may say ``include: other.yaml`` (or a list): the included files are loaded first (relative
-to the including file) and the including file's values override them, mapping by mapping.
+to the including file) and the including file's values override them, mapping by mapping. An
+included file must lie in the including file's folder or below it, or in the package's ``config``
+folder (:func:`config_dirs`), symbolic links resolved; any other is refused before it is opened,
+so a config cannot make the loader read (or quote in an error) a file the user did not name.
 """
 from __future__ import annotations
 
@@ -186,8 +189,15 @@ def _check_expansion(node, path: Path) -> None:
         raise _yaml_error(exc, path) from None
 
 
+#: what YAML does not allow in a document (the complement of PyYAML's printable set): NUL and the
+#: other control characters except tab, newline and carriage return, surrogates, U+FFFE/U+FFFF
+_NOT_PRINTABLE = re.compile("[^\t\n\r\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd"
+                            "\U00010000-\U0010ffff]")
+
+
 def _read_text(path: Path) -> str:
-    """The file as text: size-limited, UTF-8, no tabs in indentation (errors name the line)."""
+    """The file as text: size-limited, UTF-8, printable, no tabs in indentation (errors name
+    the line)."""
     limit = max_yaml_bytes()
     try:
         with open(path, "rb") as f:
@@ -204,6 +214,13 @@ def _read_text(path: Path) -> str:
         line = data[:exc.start].count(b"\n") + 1
         raise ConfigError(f"line {line}", f"not UTF-8 text (byte 0x{data[exc.start]:02x})",
                           fix="save the file as UTF-8", source=str(path)) from None
+    bad = _NOT_PRINTABLE.search(text)
+    if bad:
+        line = text.count("\n", 0, bad.start()) + 1
+        column = bad.start() - text.rfind("\n", 0, bad.start())
+        raise ConfigError(f"line {line}", f"control character U+{ord(bad.group()):04X} at column "
+                          f"{column}", fix="remove it (a config is printable text; tab, newline "
+                          "and carriage return are allowed)", source=str(path))
     for number, line_text in enumerate(text.splitlines(), 1):
         indent = line_text[:len(line_text) - len(line_text.lstrip(" \t"))]
         if "\t" in indent:
@@ -243,12 +260,42 @@ def _include_list(value, text: str, path: Path) -> list[str]:
     return names
 
 
+def _include_path(name: str, text: str, path: Path) -> Path:
+    """The file an ``include:`` entry of ``path`` names, confined (see the module docstring):
+    refused -- without opening it, and alike whether it exists or not -- outside the including
+    file's folder and the package's ``config`` folders."""
+    where = _key_line(text, "include")
+    target = path.parent / name
+    folder = path.parent                          # ``path`` is resolved already
+    shipped = [Path(os.path.abspath(d)) for d in config_dirs()]
+    try:
+        real = target.resolve()
+        inside = (real.is_relative_to(folder)
+                  or any(real.is_relative_to(d.resolve()) for d in shipped)
+                  or any(Path(os.path.abspath(target)).is_relative_to(d) for d in shipped))
+        found = inside and target.is_file()
+    except (OSError, RuntimeError, ValueError) as exc:      # too long, a symlink loop, NUL
+        why = getattr(exc, "strerror", None) or type(exc).__name__
+        raise ConfigError(where, f"included file {name!r} cannot be resolved ({why})",
+                          fix="give a plain relative path", source=str(path)) from None
+    if not inside:
+        raise ConfigError(where, f"included file {name!r} is outside the folders a config may "
+                          f"include from ({folder} and below, the package's config folder)",
+                          fix="copy the file next to the including one (or below it), or give "
+                              "the path of a shipped config", source=str(path))
+    if not found:
+        raise ConfigError(where, f"included file {name!r} not found",
+                          fix="give a path relative to the including file", source=str(path))
+    return target
+
+
 def load_yaml(path: str | os.PathLike, _seen: tuple[Path, ...] = ()) -> dict:
     """Load a YAML mapping, resolving ``include:`` recursively (cycles are refused).
 
     Bounded: files above :func:`max_yaml_bytes`, nesting deeper than :data:`MAX_YAML_DEPTH`
     and aliases expanding to more than :data:`MAX_YAML_NODES` values are refused; so are
-    duplicate keys, tabs in indentation and non-UTF-8 bytes -- each error names the line."""
+    duplicate keys, tabs in indentation, control characters and non-UTF-8 bytes -- each error
+    names the line. Included files are confined (:func:`_include_path`)."""
     path = Path(path).resolve()
     if path in _seen:
         raise ConfigError("include", f"include cycle through {path.name}",
@@ -263,11 +310,7 @@ def load_yaml(path: str | os.PathLike, _seen: tuple[Path, ...] = ()) -> dict:
     includes = _include_list(data.pop("include", []), text, path)
     merged: dict = {}
     for inc in includes:
-        inc_path = (path.parent / inc) if not Path(inc).is_absolute() else Path(inc)
-        if not inc_path.is_file():
-            raise ConfigError(_key_line(text, "include"), f"included file {inc!r} not found",
-                              fix="give a path relative to the including file", source=str(path))
-        merged = _merge(merged, load_yaml(inc_path, _seen + (path,)))
+        merged = _merge(merged, load_yaml(_include_path(inc, text, path), _seen + (path,)))
     return _merge(merged, data)
 
 

@@ -159,9 +159,13 @@ def test_an_independent_writers_directory_passes_and_a_wrong_metadata_yaml_does_
 
 
 def test_info_lists_topics_counts_and_rates(simulated, capsys):
+    """From the summary, and with --integrity from the data: the same lines but the last."""
     assert main(["bag", "info", str(simulated)]) == 0
     out = capsys.readouterr().out
-    assert "profile 'ros2'" in out and "integrity: ok" in out
+    assert main(["bag", "info", "--integrity", str(simulated)]) == 0
+    checked = capsys.readouterr().out
+    assert "profile 'ros2'" in out and "integrity: ok" in checked
+    assert out.splitlines()[:-1] == checked.splitlines()[:-1]
     rate = [line for line in out.splitlines() if "/rotor/joint_state" in line][0]
     with BagReader(simulated) as r:
         rate_hz = r.config["discretisation"]["sample_rate_hz"]

@@ -37,7 +37,7 @@ def test_recover_keeps_every_chunk_but_the_damaged_first_one(tmp_path, capsys):
     raw[first[0] + first[1] // 2] ^= 0x10                      # one bit inside chunk 1
     bad = tmp_path / "bad.mcap"
     bad.write_bytes(bytes(raw))
-    assert main(["bag", "info", str(bad)]) == 4
+    assert main(["bag", "info", "--integrity", str(bad)]) == 4
     assert "chunk at byte" in capsys.readouterr().out
     out_path = tmp_path / "fixed.mcap"
     assert main(["bag", "recover", str(bad), "--out", str(out_path)]) == 0

@@ -2,8 +2,13 @@
 in a rclpy executor: a wrong frame_id and a message stamped 2^31-1 s each cost one sample (the
 answers afterwards are the reference block's exactly), a flood of 20,000 measurements is
 reported as dropped on /diagnostics, an Imu accelerometer drives the controller with its axis,
-sign and scale, and an unstable design is refused at start-up."""
+sign and scale, and an unstable design is refused at start-up. External inputs (an Imu, a stamped
+vector on a driver's topic) are answered from publishers of every usual QoS -- rclpy's sensor-data
+profile (best effort) as drivers publish, the default (reliable, volatile) and transient-local --
+while a publisher the plant's lockstep subscription cannot match is an ERROR on /diagnostics
+naming the fix."""
 import math
+import time
 
 import numpy as np
 import pytest
@@ -13,10 +18,12 @@ from test_ros_faults import Listener
 from test_ros_graph import scenario_file
 
 from geometry_msgs.msg import AccelStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import Imu
 
 from rotor_avc.analysis.design_check import DesignError
 from rotor_avc.control.block import build_digital_controllers
+from rotor_avc.nodes import foot_controller as fc_module
 from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.plant_simulator import PlantSimulator
@@ -218,3 +225,113 @@ def test_fuzzed_measurement_bytes_never_break_the_controller(scenario):
     assert all(math.isfinite(f) for f in answers)
     assert all(math.isfinite(z) for z in ctrl.ctrl.filter.state)
     assert counts["malformed"] > 0 and counts["implausible"] + counts["future"] + counts["stale"] > 0
+
+
+#: publisher QoS profiles a sensor input meets: what drivers use, rclpy's default, transient-local
+PUBLISHER_QOS = {"sensor_data": qos_profile_sensor_data, "default": QoSProfile(depth=10),
+                 "transient_local": QoSProfile(depth=10,
+                                               durability=DurabilityPolicy.TRANSIENT_LOCAL)}
+#: input kind -> message type, the driver's topic and how a message carries ``a`` (m/s^2)
+SENSOR_INPUTS = {
+    "stamped": (AccelStamped, "/driver/accel_DL",
+                lambda msg, a: setattr(msg.accel.linear, "z", a)),
+    "imu": (Imu, "/driver/imu_DL", lambda msg, a: setattr(msg.linear_acceleration, "z", a)),
+}
+
+
+def answered(ctrl, lis, pub, msg_type, fill, values, T) -> list[float]:
+    """Publish one measurement per value (stamp k T), each after the answer to the one before;
+    a measurement without an answer is published again after a while (best effort may lose one;
+    the controller answers a repeated stamp from its cache). The forces, one per stamp."""
+    ex = make_executor("events")
+    for n in (ctrl, lis.node):
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: pub.get_subscription_count() > 0, timeout_s=30)
+        msg = msg_type()
+        msg.header.frame_id = "foot_DL"
+        for k, value in enumerate(values):
+            m.set_stamp(msg.header.stamp, m.sample_ns(k, T))
+            fill(msg, value)
+            stamp = m.sample_ns(k, T)
+            t_end = time.monotonic() + 60
+            while not any(s == stamp for s, _ in lis.forces.get("DL", [])):
+                assert time.monotonic() < t_end, f"no answer to measurement {k}"
+                pub.publish(msg)
+                spin_until(ex, lambda: any(s == stamp for s, _ in lis.forces.get("DL", [])),
+                           timeout_s=2)
+    finally:
+        ex.shutdown()
+    return list(dict(lis.forces["DL"]).values())
+
+
+@pytest.mark.parametrize("profile", list(PUBLISHER_QOS))
+@pytest.mark.parametrize("kind", list(SENSOR_INPUTS))
+def test_sensor_input_is_answered_from_every_publisher_qos(scenario, kind, profile):
+    """The default measurement_qos (auto: sensor_data for an external input) matches a
+    best-effort, a default and a transient-local publisher: every measurement is answered with
+    the reference block's force."""
+    T = load_scenario(scenario).sample_period_s
+    msg_type, topic, fill = SENSOR_INPUTS[kind]
+    ctrl = FootController(f"fc_qos_{kind}_{profile}", parameter_overrides=params(
+        scenario=scenario, foot_id="DL", input=kind, measurement_topic=topic))
+    assert ctrl.qos_name == "sensor_data"
+    lis = Listener(f"listener_qos_{kind}_{profile}")
+    pub = lis.node.create_publisher(msg_type, topic, PUBLISHER_QOS[profile])
+    accel = (2.0 * np.sin(np.arange(30) * 0.25)).tolist()
+    try:
+        got = answered(ctrl, lis, pub, msg_type, fill, accel, T)
+    finally:
+        ctrl.destroy_node()
+        lis.node.destroy_node()
+    ref = reference(scenario)
+    np.testing.assert_allclose(got, [ref.step(a) for a in accel], rtol=1e-12, atol=1e-9)
+    assert ctrl.counts["incompatible_qos"] == 0
+
+
+def test_publisher_the_lockstep_subscription_cannot_match_is_an_error(scenario, monkeypatch):
+    """On the plant's own topic the subscription stays the lockstep one (reliable,
+    transient-local): a best-effort publisher there is never matched -- said as an ERROR on
+    /diagnostics and counted, naming the policy and the fix, until it is gone; with the fix
+    (measurement_qos sensor_data) the same publisher is answered."""
+    T = load_scenario(scenario).sample_period_s
+    topic = m.foot_topic("DL", "acceleration")
+    ctrl = FootController("fc_qos_lockstep", parameter_overrides=params(scenario=scenario,
+                                                                        foot_id="DL"))
+    assert ctrl.qos_name == "lockstep"
+    lis = Listener("listener_qos_lockstep")
+    pub = lis.node.create_publisher(AccelStamped, topic, qos_profile_sensor_data)
+    ex = make_executor("events")
+    for n in (ctrl, lis.node):
+        ex.add_node(n)
+
+    def errors():
+        return [st for st in lis.statuses("error") if st.name.endswith(": DL")]
+    try:
+        assert spin_until(ex, lambda: bool(errors()), timeout_s=30)
+        text = errors()[-1].message
+        assert "RELIABILITY" in text and "fix: -p measurement_qos:=sensor_data" in text, text
+        assert topic in text and ctrl.counts["incompatible_qos"] >= 1
+        assert pub.get_subscription_count() == 0                # never matched: nothing arrives
+        monkeypatch.setattr(fc_module, "QOS_RECHECK_S", 0.0)
+        lis.node.destroy_publisher(pub)                            # the bad publisher leaves
+        n_ok = len(lis.statuses("ok"))
+        assert spin_until(ex, lambda: any(st.name.endswith(": DL")
+                                          for st in lis.statuses("ok")[n_ok:]), timeout_s=30)
+        assert not ctrl.qos_error
+    finally:
+        ex.shutdown()
+        ctrl.destroy_node()
+        lis.node.destroy_node()
+    fixed = FootController("fc_qos_fixed", parameter_overrides=params(
+        scenario=scenario, foot_id="DL", measurement_qos="sensor_data"))
+    lis = Listener("listener_qos_fixed")
+    pub = lis.node.create_publisher(AccelStamped, topic, qos_profile_sensor_data)
+    accel = [0.5, -1.0, 2.0, 0.25]
+    try:
+        got = answered(fixed, lis, pub, AccelStamped, SENSOR_INPUTS["stamped"][2], accel, T)
+    finally:
+        fixed.destroy_node()
+        lis.node.destroy_node()
+    ref = reference(scenario)
+    np.testing.assert_allclose(got, [ref.step(a) for a in accel], rtol=1e-12, atol=1e-9)

@@ -1,10 +1,15 @@
 """`rotor-avc replay`: a foot controller re-driven with a bag's recorded foot accelerations
 publishes the recorded forces (same filter, same inputs: equal to 1e-12), a changed controller is
 detected, a rosbag2 directory with driver topics re-drives it through --remap, timed replay
-keeps the recorded timing, and malformed bags give a one-line error."""
+keeps the recorded timing, a rate it cannot hold is said with the achieved rate and does not
+fail the check, an earlier replay's answers are not taken for a later one's, and malformed bags
+give a one-line error."""
+import itertools
 import subprocess
 import sys
+import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +28,8 @@ from rotor_avc.cli import main as cli
 from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.recorder import RECORD_QOS
-from rotor_avc.nodes.replay import (AnswerRule, Replayer, ReplayError, ReplayResult,
-                                    compare_answers, plan_replay)
+from rotor_avc.nodes.replay import (LATE_S, AnswerRule, Replayer, ReplayError, ReplayResult,
+                                    _read_ahead, compare_answers, plan_replay)
 
 pytestmark = pytest.mark.ros
 DL_ACC, DL_FORCE = "/avc/foot/DL/acceleration", "/avc/foot/DL/actuator_force"
@@ -47,10 +52,21 @@ def run(tmp_path_factory):
     return sc, bag
 
 
+@pytest.fixture(scope="module")
+def long_run(tmp_path_factory):
+    """A 2 s case-3 run at 5 kHz (10,000 samples): more answers than the lockstep queues hold
+    (LOCKSTEP_DEPTH 4096)."""
+    tmp = tmp_path_factory.mktemp("replay_long")
+    sc = scenario_file(tmp, "foot_mount_case3", 20.0, duration_s=2.0)
+    bag = tmp / "case3_long.mcap"
+    assert cli(["simulate", sc, "--out", str(bag)]) == 0
+    return sc, bag
+
+
 def changed_gain(tmp_path, sc: str) -> str:
     """A copy of the scenario whose DL controller has another gain."""
-    path = tmp_path / "changed.yaml"
-    path.write_text(f"include: {sc}\ncontrollers:\n"
+    path = Path(sc).parent / f"changed_{tmp_path.name}.yaml"     # beside it: includes stay
+    path.write_text(f"include: {Path(sc).name}\ncontrollers:\n"
                     "  DL: {type: I, feedback: acceleration, ki: 1.5e+5}\n")
     return str(path)
 
@@ -271,3 +287,91 @@ def test_compare_answers_matches_stamps_and_flags_every_difference(run):
         assert not check(recorded[:-1], missing=1).passed(1.0)
         stray = check(recorded + [(10**15, m.Force("DL").fill(10**15, 0.0))])
         assert stray.unmatched == 1 and not stray.passed(1.0)
+
+
+def test_a_rate_the_replay_cannot_hold_is_said_and_does_not_fail_the_check(long_run):
+    """`rotor-avc replay --rate 10 --check` of 10,000 samples (50,000 messages/s asked, far
+    beyond a Python publisher) into a controller process: a warning gives the achieved rate and
+    the late log times, and every answer arrives and equals the recording (exit 0) -- the
+    answers were once left to overflow the queues, 5,554 of them lost and the check failed."""
+    sc, bag = long_run
+    ctrl = node_process("foot_controller", "-r", "__node:=fc_rate_DL", "-p", f"scenario:={sc}",
+                        "-p", "foot_id:=DL")
+    try:
+        proc = subprocess.run([sys.executable, "-m", "rotor_avc", "replay", str(bag), "--rate",
+                               "10", "--topics", DL_ACC, "--check", "1e-12",
+                               "--discovery-timeout", "30", "--answer-timeout", "60"],
+                              cwd=ROOT, capture_output=True, text=True, timeout=600)
+    finally:
+        log = stop(ctrl)
+    out = proc.stdout + proc.stderr
+    assert "Traceback" not in out + log, out + log
+    warning = [line for line in proc.stdout.splitlines() if line.startswith("warning: ")]
+    assert len(warning) == 1 and "could not hold --rate 10: achieved " in warning[0], out
+    assert "x of the requested 10x; " in warning[0] and " of 10000 log times published" in out
+    assert proc.returncode == 0, out
+    assert "10000 answers, 10000 compared" in out and "0 triggers unanswered" in out, out
+    assert "every answer equals the recording" in out
+
+
+def test_rate_warning_counts_the_late_log_times():
+    result = ReplayResult("timed x10", {DL_ACC: 100}, 100, 3.0, {}, [], rate=10.0,
+                          achieved_rate=0.3125, late=97, max_lag_s=2.5)
+    assert result.rate_warning() == (
+        f"could not hold --rate 10: achieved 0.31x of the requested 10x; 97 of 100 log times "
+        f"published more than {LATE_S:g} s late (up to 2.5 s behind the schedule)")
+    held = ReplayResult("timed x0.5", {DL_ACC: 100}, 100, 3.0, {}, [], rate=0.5,
+                        achieved_rate=0.5, late=0, max_lag_s=0.01)
+    assert held.rate_warning() is None
+    assert ReplayResult("lockstep", {DL_ACC: 100}, 100, 3.0, {}, []).rate_warning() is None
+
+
+def test_a_later_replay_takes_only_its_own_answers(run):
+    """Two lockstep replays into one controller node: the second receives its own 1000 answers
+    only -- not also the 1000 the controller gave the first one (history a transient-local
+    subscription would deliver) -- and, the controller having run on from the first replay
+    (stale stamps, then a reset), they differ from the recording: the check fails, as it must."""
+    sc, bag = run
+    ctrl = FootController("fc_twice_DL", parameter_overrides=params(scenario=sc, foot_id="DL"))
+    ex = make_executor("events")
+    ex.add_node(ctrl)
+    results = []
+    with BagReader(bag, require_config=True) as reader:
+        plan = plan_replay(reader, [DL_ACC])
+        try:
+            for k in range(2):
+                node = Replayer(reader, plan, name=f"rotor_avc_replay_{k}")
+                ex.add_node(node)
+                try:
+                    results.append(node.run(ex, fast=True, discovery_timeout_s=5.0))
+                finally:
+                    ex.remove_node(node)
+                    node.destroy_node()
+        finally:
+            ex.shutdown()
+            ctrl.destroy_node()
+        checks = [compare_answers(reader, plan, r)[0] for r in results]
+    assert [len(r.answers[DL_FORCE]) for r in results] == [1000, 1000]
+    assert checks[0].passed(1e-12) and not checks[1].passed(1e-12)
+
+
+def test_read_ahead_hands_over_items_and_errors_and_stops_when_closed():
+    """The timed replay's reader thread: every item in order, a reading error (a damaged chunk)
+    raised in the consumer after the items before it, and a consumer that stops early ends the
+    thread (and the interpreter's switch interval is restored)."""
+    interval = sys.getswitchinterval()
+
+    def damaged():
+        yield from range(3)
+        raise ValueError("damaged chunk")
+    assert list(_read_ahead(iter(range(10_000)), 64)) == list(range(10_000))
+    got = []
+    with pytest.raises(ValueError, match="damaged chunk"):
+        for item in _read_ahead(damaged(), 64):
+            got.append(item)
+    assert got == [0, 1, 2]
+    endless = _read_ahead(itertools.count(), 16)
+    assert next(endless) == 0
+    endless.close()                                       # joins the thread
+    assert not [t for t in threading.enumerate() if t.name == "replay_read_ahead"]
+    assert sys.getswitchinterval() == interval

@@ -126,15 +126,15 @@ def test_an_interrupted_study_resumes_without_recomputing(case3, tmp_path):
     run_study(spec, SerialBackend(), out=tmp_path, progress=False)
     whole = (tmp_path / "points.csv").read_bytes()
     journal = tmp_path / "journal.csv"
-    lines = journal.read_text().splitlines(keepends=True)
-    journal.write_text("".join(lines[:6]) + lines[6][:15])      # 5 points and a cut-off line
+    lines = journal.read_text().splitlines(keepends=True)     # two header lines, then points
+    journal.write_text("".join(lines[:7]) + lines[7][:15])      # 5 points and a cut-off line
     (tmp_path / "points.csv").unlink()
     seen = []
     again = run_study(spec, ProcessBackend(2), out=tmp_path, progress=False, on_outcome=seen.append)
-    done_before = {int(line.split(",")[0]) for line in lines[1:6]}
+    done_before = {int(line.split(",")[0]) for line in lines[2:7]}
     assert again.computed == 12 - 5 and {o.index for o in seen}.isdisjoint(done_before)
     assert (tmp_path / "points.csv").read_bytes() == whole
-    rows = journal.read_text().splitlines()[1:]
+    rows = journal.read_text().splitlines()[2:]
     assert sorted(int(r.split(",")[0]) for r in rows) == list(range(12))
 
 

@@ -1,6 +1,7 @@
 """A real Dask cluster on 127.0.0.1 -- a ``dask scheduler`` and two ``dask worker`` processes
-started and ended by the test: a study gives the same bytes as the serial run, and a worker
-killed mid-study loses no point and computes none twice."""
+started and ended by the test: a study gives the same bytes as the serial run, a worker
+killed mid-study loses no point and computes none twice, and a scheduler that stops answering
+or a cluster that loses every worker mid-study is reported in one line within the stated time."""
 import os
 import signal
 import subprocess
@@ -12,7 +13,7 @@ import pytest
 
 from rotor_avc.analysis.robustness import robustness_point
 from rotor_avc.config import load_config
-from rotor_avc.studies.backends import DaskBackend, SerialBackend
+from rotor_avc.studies.backends import BackendError, DaskBackend, SerialBackend
 from rotor_avc.studies.engine import StudySpec, run_study
 from rotor_avc.studies.points import Sample, parse_sample
 
@@ -41,7 +42,7 @@ def _stop(proc: subprocess.Popen) -> None:
 
 @pytest.fixture
 def cluster(tmp_path):
-    """``(address, {name: worker process})``: a scheduler and two single-threaded workers
+    """``(address, {name: worker process}, scheduler process)``: a scheduler and two single-threaded workers
     without nannies (a killed worker stays dead), all on 127.0.0.1, ready when returned."""
     info = tmp_path / "scheduler.json"
     procs = [_spawn(["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
@@ -60,7 +61,7 @@ def cluster(tmp_path):
         with distributed.Client(scheduler_file=str(info), timeout=START_TIMEOUT_S) as client:
             client.wait_for_workers(2, timeout=START_TIMEOUT_S)
             address = client.scheduler.address
-        yield address, workers
+        yield address, workers, procs[0]
     finally:
         for proc in reversed(procs):
             _stop(proc)
@@ -80,7 +81,7 @@ def _same_files(a: Path, b: Path) -> None:
 
 @pytest.mark.timeout(180)
 def test_a_dask_cluster_gives_the_serial_bytes(cluster, tmp_path):
-    address, _ = cluster
+    address, _, _ = cluster
     study = spec(16)
     run_study(study, SerialBackend(), out=tmp_path / "serial", progress=False)
     backend = DaskBackend(address)
@@ -97,7 +98,7 @@ def test_a_dask_cluster_gives_the_serial_bytes(cluster, tmp_path):
 
 @pytest.mark.timeout(180)
 def test_a_worker_killed_mid_study_loses_no_point(cluster, tmp_path):
-    address, workers = cluster
+    address, workers, _ = cluster
     study = spec(40)
     run_study(study, SerialBackend(), out=tmp_path / "serial", progress=False)
     arrived, killed_with = [], []
@@ -122,6 +123,57 @@ def test_a_worker_killed_mid_study_loses_no_point(cluster, tmp_path):
     assert killed_with and len(arrived) == 40
     assert workers["w1"].wait(10) == -signal.SIGKILL and left == 1
     assert sorted(arrived) == list(range(40)) and not run.failed
-    journal = (tmp_path / "dask" / "journal.csv").read_text().splitlines()[1:]
+    journal = (tmp_path / "dask" / "journal.csv").read_text().splitlines()[2:]
     assert sorted(int(line.split(",")[0]) for line in journal) == list(range(40))
     _same_files(tmp_path / "serial", tmp_path / "dask")
+
+
+@pytest.mark.timeout(180)
+def test_a_scheduler_that_stops_answering_is_reported(cluster, tmp_path):
+    """The scheduler stopped (SIGSTOP) mid-study: no result for ``probe_s``, then no answer
+    within ``timeout_s`` -- one BackendError with the resume hint (was: a wait for good); the
+    journal keeps the points that arrived."""
+    address, _, scheduler = cluster
+    backend = DaskBackend(address, timeout_s=2.0, probe_s=1.0)
+    arrived = []
+
+    def stop_the_scheduler(outcome):
+        arrived.append(outcome.index)
+        if len(arrived) == 3:
+            os.kill(scheduler.pid, signal.SIGSTOP)
+
+    try:
+        with pytest.raises(BackendError) as err:
+            run_study(spec(40), backend, out=tmp_path, batch_size=1, progress=False,
+                      on_outcome=stop_the_scheduler)
+    finally:
+        os.kill(scheduler.pid, signal.SIGCONT)
+        backend.close()
+    assert f"the Dask scheduler at {address} stopped answering" in str(err.value)
+    assert "gave no Dask answer within 2 s" in str(err.value) and "resume" in str(err.value)
+    journal = (tmp_path / "journal.csv").read_text().splitlines()[2:]
+    assert 3 <= len(journal) == len(arrived) < 40
+
+
+@pytest.mark.timeout(180)
+def test_a_cluster_left_without_workers_is_reported(cluster, tmp_path):
+    """Both workers killed mid-study: the study's data are lost with them and the study ends
+    with the resume hint."""
+    address, workers, _ = cluster
+    backend = DaskBackend(address, timeout_s=2.0, probe_s=1.0)
+    arrived = []
+
+    def kill_the_workers(outcome):
+        arrived.append(outcome.index)
+        if len(arrived) == 3:
+            for proc in workers.values():
+                os.killpg(proc.pid, signal.SIGKILL)
+
+    try:
+        with pytest.raises(BackendError, match="cancelled a task.*workers lost.*resume"):
+            run_study(spec(40), backend, out=tmp_path, batch_size=1, progress=False,
+                      on_outcome=kill_the_workers)
+    finally:
+        backend.close()
+    journal = (tmp_path / "journal.csv").read_text().splitlines()[2:]
+    assert 3 <= len(journal) == len(arrived) < 40

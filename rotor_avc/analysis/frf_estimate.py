@@ -77,19 +77,28 @@ def estimate_frf(x, y, fs_hz: float, *, nperseg: int | None = None,
                          f"0 <= overlap < segment length (got {nperseg}, {noverlap})")
     if not np.any(x - x.mean()):
         raise ModelError("FRF estimate: the input record is constant (no excitation)")
+    f, gxx, gyy, gxy = _spectra(x, y, fs_hz, nperseg, noverlap, window, detrend)
+    averages = (n - noverlap) // (nperseg - noverlap)
+    return _estimate(f, gxx, gyy, gxy, fs_hz, window, nperseg, noverlap, averages, detrend)
+
+
+def _spectra(x, y, fs_hz, nperseg, noverlap, window, detrend):
+    """``(f, Gxx, Gyy, Gxy)`` by Welch averaging (``Gxx`` shaped to broadcast against y's)."""
     opts = dict(fs=fs_hz, window=window, nperseg=nperseg, noverlap=noverlap, detrend=detrend,
                 axis=0)
     xx = x[:, None] if y.ndim == 2 else x
     f, gxx = scipy.signal.welch(x, **opts)
     _, gyy = scipy.signal.welch(y, **opts)
     _, gxy = scipy.signal.csd(xx, y, **opts)
-    if y.ndim == 2:
-        gxx = gxx[:, None]
+    return f, (gxx[:, None] if y.ndim == 2 else gxx), gyy, gxy
+
+
+def _estimate(f, gxx, gyy, gxy, fs_hz, window, nperseg, noverlap, averages,
+              detrend) -> FrfEstimate:
     with np.errstate(divide="ignore", invalid="ignore"):
         h1 = gxy / gxx
         h2 = gyy / np.conj(gxy)
         coherence = np.abs(gxy) ** 2 / (gxx * gyy)
-    averages = (n - noverlap) // (nperseg - noverlap)
     return FrfEstimate(f, h1, h2, np.nan_to_num(coherence), float(fs_hz), str(window),
                        int(nperseg), int(noverlap), int(averages), str(detrend))
 
@@ -104,3 +113,58 @@ def h1_random_error(coherence, averages: int) -> np.ndarray:
         raise ModelError(f"FRF random error: averages must be >= 1 (got {averages})")
     with np.errstate(divide="ignore"):
         return np.sqrt(1.0 - g2) / (np.sqrt(g2) * np.sqrt(2.0 * averages))
+
+
+#: the shortest Welch segment of a gapped record (samples) and the fewest averages over it
+MIN_SEGMENT, MIN_AVERAGES = 256, 2
+#: averages a gapped record's segment length aims at (as :func:`estimate_frf`'s default)
+TARGET_AVERAGES = 16
+
+
+def contiguous_runs(time_s, period_s: float) -> list[tuple[int, int]]:
+    """``[a, b)`` ranges of samples ``period_s`` apart (a longer step is a gap)."""
+    t = np.asarray(time_s, dtype=float)
+    cuts = np.flatnonzero(np.diff(t) > 1.5 * period_s) + 1
+    edges = np.concatenate([[0], cuts, [t.size]])
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def welch_averages(lengths, nperseg: int) -> int:
+    """Welch segments (50 % overlap) that fit in runs of the given lengths."""
+    step = nperseg - nperseg // 2
+    return int(sum((n - nperseg) // step + 1 for n in lengths if n >= nperseg))
+
+
+def gapped_segment_length(lengths) -> int | None:
+    """The power-of-two segment length for runs of these lengths: the one giving about
+    :data:`TARGET_AVERAGES` averages over all of them, shortened while fewer than half of that
+    fit into the runs, not below :data:`MIN_SEGMENT`; None when even that gives fewer than
+    :data:`MIN_AVERAGES`."""
+    total = sum(lengths)
+    nperseg = max(MIN_SEGMENT, 2 ** int(np.floor(np.log2(max(total / 8.5, 1)))))
+    while nperseg > MIN_SEGMENT and welch_averages(lengths, nperseg) < TARGET_AVERAGES // 2:
+        nperseg //= 2
+    return nperseg if welch_averages(lengths, nperseg) >= MIN_AVERAGES else None
+
+
+def estimate_frf_gapped(x, y, fs_hz: float, runs, nperseg: int) -> FrfEstimate:
+    """H1, H2 and coherence of a record with gaps: Welch averaging over the segments that lie
+    wholly inside the contiguous ``runs`` (``[a, b)`` sample ranges), each run's spectra weighted
+    by its number of segments, so that no segment spans a gap (where the spectra of the
+    interpolated or missing samples would bias the estimate). ``averages`` counts the segments
+    of all runs (the random error's ``n_d``)."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    used = [(a, b) for a, b in runs if b - a >= nperseg]
+    counts = [welch_averages([b - a], nperseg) for a, b in used]
+    if sum(counts) < MIN_AVERAGES:
+        raise ModelError(f"FRF estimate: {sum(counts)} Welch segments of {nperseg} samples fit "
+                         f"between the record's gaps; at least {MIN_AVERAGES} are needed")
+    noverlap = nperseg // 2
+    sums = None
+    for (a, b), count in zip(used, counts):
+        f, *spectra = _spectra(x[a:b], y[a:b], fs_hz, nperseg, noverlap, "hann", "constant")
+        sums = ([count * s for s in spectra] if sums is None
+                else [acc + count * s for acc, s in zip(sums, spectra)])
+    gxx, gyy, gxy = (s / sum(counts) for s in sums)
+    return _estimate(f, gxx, gyy, gxy, fs_hz, "hann", nperseg, noverlap, sum(counts), "constant")

@@ -11,19 +11,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .order_tracking import fit
+
 
 def one_x_random_error(angle_rad, values) -> tuple[complex, float]:
     """``(Y, eps)``: the 1x phasor of ``values`` over ``angle_rad`` (least squares with an
-    offset) and its magnitude's relative standard error from the residual."""
-    theta = np.asarray(angle_rad, dtype=float)
-    y = np.asarray(values, dtype=float)
-    basis = np.column_stack([np.cos(theta), np.sin(theta), np.ones_like(theta)])
-    coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
-    resid = y - basis @ coef
-    s = np.sqrt(resid @ resid / max(y.size - 3, 1))
-    phasor = complex(coef[0], -coef[1])
-    with np.errstate(divide="ignore"):
-        return phasor, float(s * np.sqrt(2.0 / y.size) / abs(phasor))
+    offset, :func:`rotor_avc.analysis.order_tracking.fit`) and its magnitude's relative standard
+    error from the residual."""
+    phasor, sigma = fit(angle_rad, values)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return complex(phasor), float(sigma / abs(phasor))
 
 
 def decidable(eps: float, tol_db: float, sigmas: float = 2.0) -> tuple[bool, float]:

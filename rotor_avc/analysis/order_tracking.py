@@ -10,9 +10,15 @@ integer number ``n`` of revolutions (seed 000 section 10, "Phasors")::
 where ``u`` is the run's complex unbalance amplitude (e.g. ``m e e^{j phi}`` in kg m), so the
 result compares directly with :func:`rotor_avc.closed_loop.frf.unbalance_frf`. The window
 ``[k0, k1)`` is chosen with ``theta[k1] - theta[k0]`` as close to ``2 pi n`` as the sampling
-allows; at constant speed the ``e^{-2 j theta}`` image then cancels up to the fraction of a
-sample by which the span misses ``2 pi n`` (relative error below ``1 / samples_per_window``),
-and the window mean is subtracted first so that an offset cannot leak in the same way.
+allows. The phasor is the least-squares fit of ``y = Re{Y e^{j theta}} + c`` over the samples
+the window holds, at their own angles (:func:`fit`): on uniform samples of whole revolutions
+it is the sum above (the basis is orthogonal there), and on a recording with dropped samples
+it stays unbiased where the sum would leak the ``e^{-2 j theta}`` image and the offset.
+
+The angle is taken as given: a continuous shaft angle with its revolutions counted (the
+simulator's integrated angle, or :mod:`rotor_avc.analysis.resampling`'s angle from tacho
+pulses or an encoder). It is never unwrapped here: across a gap of more than half a revolution
+between kept samples, unwrapping would drop revolutions and the speed with them.
 
 * :func:`stepped_speed` -- one phasor per constant-speed dwell (found from the recorded speed),
   over the whole revolutions at the end of the dwell, after a settling time;
@@ -42,6 +48,9 @@ class OrderTrack:
     revolutions: np.ndarray             # whole revolutions per window
     samples: np.ndarray                 # samples per window
     unbalance: complex
+    #: per channel and window: standard error of each quadrature component of the phasor
+    #: (from the fit's residual, divided by ``|unbalance|`` as the phasors are)
+    sigma: dict[str, np.ndarray] = field(default_factory=dict)
     #: per channel and window: |Y(second half) - Y(first half)| / |Y| over the window's whole
     #: revolutions split in two -- how far a dwell still is from steady state (NaN: < 2 revs)
     drift: dict[str, np.ndarray] = field(default_factory=dict)
@@ -56,13 +65,22 @@ class OrderTrack:
             return 20 * np.log10(np.abs(self.phasors[name]))
 
 
-def phasor(angle_rad, values) -> np.ndarray:
-    """``(2/N) sum (y - mean y) e^{-j theta}`` over the given samples (``values`` (N,) or
-    (N, m)); removing the window mean keeps a constant offset from leaking in when the span
-    misses whole revolutions by a fraction of a sample."""
+def fit(angle_rad, values) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares ``y = Re{Y e^{j theta}} + c`` over the given samples (``values`` (N,) or
+    (N, m)): ``(Y, sigma)``, ``sigma`` the standard error of each quadrature component of ``Y``
+    from the residual (white-noise estimate, ``N - 3`` degrees of freedom)."""
     theta = np.asarray(angle_rad, dtype=float)
     y = np.asarray(values, dtype=float)
-    return 2.0 / theta.size * (np.exp(-1j * theta) @ (y - y.mean(axis=0)))
+    basis = np.column_stack([np.cos(theta), np.sin(theta), np.ones_like(theta)])
+    coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
+    resid = y - basis @ coef
+    s = np.sqrt(np.sum(resid * resid, axis=0) / max(theta.size - 3, 1))
+    return coef[0] - 1j * coef[1], s * np.sqrt(2.0 / max(theta.size, 1))
+
+
+def phasor(angle_rad, values) -> np.ndarray:
+    """The 1x phasor ``Y`` of :func:`fit`."""
+    return fit(angle_rad, values)[0]
 
 
 def _inputs(time_s, angle_rad, signals: Mapping, unbalance):
@@ -70,10 +88,15 @@ def _inputs(time_s, angle_rad, signals: Mapping, unbalance):
     if t.ndim != 1 or t.size < 3 or not np.all(np.diff(t) > 0):
         raise ModelError("order tracking: time_s must be a strictly increasing 1-D array "
                          "of at least 3 samples")
-    theta = np.unwrap(np.asarray(angle_rad, dtype=float))
+    theta = np.asarray(angle_rad, dtype=float)
     if theta.shape != t.shape or not np.all(np.isfinite(theta)):
         raise ModelError(f"order tracking: angle_rad has shape {np.shape(angle_rad)}, "
                          f"time_s {t.shape}; both need one finite value per sample")
+    step = np.diff(theta)
+    if np.any(step < -np.pi) and np.median(step) > 0:
+        raise ModelError("order tracking: angle_rad jumps back by more than pi while the shaft "
+                         "turns forward: it is a wrapped angle; give the continuous angle with "
+                         "its revolutions counted (rotor_avc.analysis.resampling)")
     if not signals:
         raise ModelError("order tracking: no signals given")
     ys = {}
@@ -108,28 +131,33 @@ def _window_before(theta: np.ndarray, first: int, last: int) -> tuple[int, int, 
 
 def _track(t, theta, ys, u, windows) -> OrderTrack:
     speeds, times, revs, samples = [], [], [], []
-    phasors = {name: [] for name in ys}
-    drift = {name: [] for name in ys}
+    names = list(ys)
+    y = np.column_stack([ys[name] for name in names])
+    phasors, sigma, drift = [], [], []
     for k0, k1, n in windows:
         speeds.append((theta[k1] - theta[k0]) / (t[k1] - t[k0]))
         times.append(0.5 * (t[k0] + t[k1]))
         revs.append(n)
         samples.append(k1 - k0)
+        whole, err = fit(theta[k0:k1], y[k0:k1])
+        phasors.append(whole / u)
+        sigma.append(err / abs(u))
         half = n // 2
+        if half < 1:
+            drift.append(np.full(len(names), np.nan))
+            continue
         km = int(np.searchsorted(theta[k0:k1], theta[k0] + TWO_PI * half)) + k0
         k2 = int(np.searchsorted(theta[k0:k1], theta[k1] - TWO_PI * half)) + k0
-        for name, y in ys.items():
-            whole = phasor(theta[k0:k1], y[k0:k1])
-            phasors[name].append(whole / u)
-            if half < 1 or abs(whole) == 0:
-                drift[name].append(np.nan)
-                continue
-            first, last = phasor(theta[k0:km], y[k0:km]), phasor(theta[k2:k1], y[k2:k1])
-            drift[name].append(abs(last - first) / abs(whole))
+        first, last = fit(theta[k0:km], y[k0:km])[0], fit(theta[k2:k1], y[k2:k1])[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            drift.append(np.where(whole != 0, np.abs(last - first) / np.abs(whole), np.nan))
+    phasors, sigma, drift = (np.array(a).reshape(len(windows), len(names))
+                             for a in (phasors, sigma, drift))
     return OrderTrack(np.array(speeds), np.array(times),
-                      {name: np.array(v, complex) for name, v in phasors.items()},
+                      {name: phasors[:, i].astype(complex) for i, name in enumerate(names)},
                       np.array(revs, int), np.array(samples, int), u,
-                      {name: np.array(v, float) for name, v in drift.items()})
+                      sigma={name: sigma[:, i].astype(float) for i, name in enumerate(names)},
+                      drift={name: drift[:, i].astype(float) for i, name in enumerate(names)})
 
 
 def concatenate(tracks: list[OrderTrack]) -> OrderTrack:
@@ -140,7 +168,9 @@ def concatenate(tracks: list[OrderTrack]) -> OrderTrack:
         {n: np.concatenate([t.phasors[n] for t in tracks]) for n in first.phasors},
         np.concatenate([t.revolutions for t in tracks]),
         np.concatenate([t.samples for t in tracks]),
-        first.unbalance, {n: np.concatenate([t.drift[n] for t in tracks]) for n in first.drift})
+        first.unbalance,
+        sigma={n: np.concatenate([t.sigma[n] for t in tracks]) for n in first.sigma},
+        drift={n: np.concatenate([t.drift[n] for t in tracks]) for n in first.drift})
 
 
 def dwells(speed_rad_s, rel_tol: float = 1e-6) -> list[tuple[int, int]]:
@@ -204,3 +234,160 @@ def run_up(time_s, angle_rad, signals: Mapping, unbalance=1.0, *,
         raise ModelError(f"order tracking: the record covers fewer than {revolutions} "
                          "revolutions; use fewer revolutions per window")
     return _track(t, theta, ys, u, windows)
+
+
+@dataclass(frozen=True)
+class ShaftAngle:
+    """A continuous shaft angle with its revolutions counted, as knots ``(time s, angle rad)``
+    increasing in both (tacho pulses at ``2 pi k``, or an encoder's samples), linear between
+    them: the angle at any time, and the time of any angle."""
+
+    knots_s: np.ndarray
+    knots_rad: np.ndarray
+
+    def angle(self, time_s) -> np.ndarray:
+        return np.interp(time_s, self.knots_s, self.knots_rad)
+
+    def time(self, angle_rad) -> np.ndarray:
+        return np.interp(angle_rad, self.knots_rad, self.knots_s)
+
+
+def dwell_windows(shaft: ShaftAngle, dwells_s, settle_fraction: float = 0.5,
+                  min_revolutions: int = 4) -> list[tuple[float, float, int]]:
+    """``(t0, t1, n)`` per constant-speed dwell ``(start s, end s)``: the whole revolutions
+    ending at the dwell's end, after its first ``settle_fraction``, when at least
+    ``min_revolutions``."""
+    out = []
+    for a, b in dwells_s:
+        first = a + settle_fraction * (b - a)
+        end = float(shaft.angle(b))
+        n = int(np.floor((end - float(shaft.angle(first))) / TWO_PI + 1e-9))
+        if n >= min_revolutions:
+            out.append((float(shaft.time(end - TWO_PI * n)), float(b), n))
+    return out
+
+
+def revolution_windows(shaft: ShaftAngle, start_s: float, stop_s: float,
+                       revolutions: int) -> list[tuple[float, float, int]]:
+    """Consecutive windows of ``revolutions`` whole revolutions from ``start_s`` to ``stop_s``
+    (a run-up or run-down at positive speed)."""
+    if revolutions < 1:
+        raise ModelError("order tracking: revolutions per window must be >= 1")
+    a0, a1 = float(shaft.angle(start_s)), float(shaft.angle(stop_s))
+    marks = a0 + TWO_PI * revolutions * np.arange(int((a1 - a0) / (TWO_PI * revolutions)) + 1)
+    times = shaft.time(marks)
+    return [(float(t0), float(t1), revolutions) for t0, t1 in zip(times[:-1], times[1:])]
+
+
+def track_windows(shaft: ShaftAngle, windows, channels: Mapping, unbalance=1.0, *,
+                  min_samples_per_revolution: float = 4.0) -> tuple[OrderTrack, list[str]]:
+    """1x phasors over shaft-defined windows ``(t0, t1, n)`` (``n`` whole revolutions from
+    ``t0`` to ``t1``) of channels each sampled at its own times (``channels``: name ->
+    ``(stamps s, values)``, gaps allowed): each channel's samples inside the window, at the
+    shaft angle of their own stamps, fitted by :func:`fit`; speed ``2 pi n / (t1 - t0)``.
+    A window where a channel has fewer than ``min_samples_per_revolution * n`` samples is left
+    out: ``(track, notes)`` with a note per window left out."""
+    u = _unbalance(unbalance)
+    rows, notes = [], []
+    for t0, t1, n in windows:
+        row = _window_row(shaft, t0, t1, n, channels, min_samples_per_revolution)
+        if isinstance(row, str):
+            notes.append(row)
+        else:
+            rows.append(row)
+    if not rows:
+        raise ModelError("order tracking: no window has enough samples of every channel; "
+                         "the recording's gaps cover the dwells")
+    return _from_rows(rows, list(channels), u), notes
+
+
+def _unbalance(unbalance) -> complex:
+    u = complex(unbalance)
+    if u == 0 or not np.isfinite(u):
+        raise ModelError(f"order tracking: the run's unbalance amplitude is {u}; "
+                         "give the (non-zero) complex unbalance the run was excited with")
+    return u
+
+
+def _window_row(shaft: ShaftAngle, t0: float, t1: float, n: int, channels: Mapping,
+                min_samples_per_revolution: float):
+    """One window's ``(speed, time, n, samples, phasors, sigmas, drifts)`` (per channel, not
+    yet divided by the unbalance), or the note why it is left out."""
+    cuts = {name: np.searchsorted(t, [t0, t1]) for name, (t, _) in channels.items()}
+    short = [name for name, (i, j) in cuts.items() if j - i < min_samples_per_revolution * n]
+    if short:
+        return (f"1x window {t0:.4g}-{t1:.4g} s left out: " + ", ".join(short)
+                + f" have fewer than {min_samples_per_revolution:g} samples per revolution there")
+    phasors, sigmas, drifts = [], [], []
+    for name, (i, j) in cuts.items():
+        t, y = channels[name][0][i:j], channels[name][1][i:j]
+        theta = shaft.angle(t)
+        whole, err = fit(theta, y)
+        phasors.append(complex(whole))
+        sigmas.append(float(err))
+        drifts.append(_drift(theta, y, whole, n // 2))
+    return (TWO_PI * n / (t1 - t0), 0.5 * (t0 + t1), n, min(j - i for i, j in cuts.values()),
+            phasors, sigmas, drifts)
+
+
+def _from_rows(rows, names, u: complex) -> OrderTrack:
+    speed, time, revs, samples, phasors, sigmas, drifts = (list(c) for c in zip(*rows))
+    phasors = np.array(phasors, complex) / u
+    sigmas = np.array(sigmas, float) / abs(u)
+    drifts = np.array(drifts, float)
+    return OrderTrack(np.array(speed), np.array(time),
+                      {name: phasors[:, i] for i, name in enumerate(names)},
+                      np.array(revs, int), np.array(samples, int), u,
+                      sigma={name: sigmas[:, i] for i, name in enumerate(names)},
+                      drift={name: drifts[:, i] for i, name in enumerate(names)})
+
+
+def _drift(theta, y, whole, half: int) -> float:
+    """|Y(last ``half`` revolutions) - Y(first ``half``)| / |Y| (NaN below 2 revolutions)."""
+    if half < 1 or whole == 0:
+        return float("nan")
+    first = theta < theta[0] + TWO_PI * half
+    last = theta >= theta[-1] - TWO_PI * half
+    if first.sum() < 4 or last.sum() < 4:
+        return float("nan")
+    return float(abs(fit(theta[last], y[last])[0] - fit(theta[first], y[first])[0]) / abs(whole))
+
+
+def run_up_stream(blocks, names, unbalance=1.0, *, revolutions: int = 8) -> OrderTrack:
+    """1x phasors of a run-up or run-down over consecutive windows of ``revolutions`` whole
+    revolutions, from blocks of samples as they come (``(time_s, angle_rad, speed_rad_s,
+    channels, ...)`` each; samples at zero or negative speed are skipped): a window is fitted
+    (:func:`track_windows`) as soon as the angle passes its end, and only the samples of the
+    window under way are kept, so the memory is one window and one block whatever the run's
+    length. The first window starts at the first turning sample."""
+    if revolutions < 1:
+        raise ModelError("order tracking: revolutions per window must be >= 1")
+    span = TWO_PI * revolutions
+    u = _unbalance(unbalance)
+    buf_t, buf_theta, buf_y = np.zeros(0), np.zeros(0), np.zeros((0, len(names)))
+    mark, rows = None, []
+    for block in blocks:
+        t, theta, w, channels = block[:4]
+        turning = np.asarray(w) > 0
+        if not turning.any():
+            continue
+        buf_t = np.concatenate([buf_t, np.asarray(t)[turning]])
+        buf_theta = np.concatenate([buf_theta, np.asarray(theta)[turning]])
+        buf_y = np.concatenate([buf_y, np.column_stack([np.asarray(channels[n])[turning]
+                                                         for n in names])])
+        if not np.all(np.diff(buf_theta) > 0):
+            raise ModelError("order tracking: the shaft angle must increase (positive speed) "
+                             "over the whole run-up; cut the record to the rotating part")
+        mark = buf_theta[0] if mark is None else mark
+        while buf_theta[-1] >= mark + span:
+            shaft = ShaftAngle(buf_t, buf_theta)
+            t0, t1 = float(shaft.time(mark)), float(shaft.time(mark + span))
+            rows.append(_window_row(shaft, t0, t1, revolutions,
+                                    {n: (buf_t, buf_y[:, i]) for i, n in enumerate(names)}, 0.0))
+            keep = max(int(np.searchsorted(buf_t, t1)) - 1, 0)   # the sample before t1 too
+            buf_t, buf_theta, buf_y = buf_t[keep:], buf_theta[keep:], buf_y[keep:]
+            mark += span
+    if not rows:
+        raise ModelError(f"order tracking: the record covers fewer than {revolutions} "
+                         "revolutions; use fewer revolutions per window")
+    return _from_rows(rows, list(names), u)

@@ -10,6 +10,7 @@
   messages, numpy series;
 * :mod:`.integrity` -- one streaming pass checking the data against CRCs, indexes, statistics,
   records and schemas (``BagReader(path, integrity=True)``; exit status 4);
+* :mod:`.summary` -- what a file holds from its summary section alone (``rotor-avc bag info``);
 * :mod:`.recover` -- :func:`recover_bag`: a new bag of every intact chunk (a killed recording,
   a damaged file);
 * :mod:`.check` -- the ``ros2 bag`` / Foxglove / PlotJuggler pitfalls of a file or a rosbag2

@@ -11,7 +11,9 @@ every sampled topic (a topic with several publishers, like ``/diagnostics``, is 
 ``metadata.yaml`` information (the ``rosbag2`` record of a single file, or a directory's
 ``metadata.yaml``, :mod:`.rosbag2_info`) consistent with the data: file list, per-file and per-topic
 counts, start and duration, types, QoS strings; and, for the package's own bags, every sample
-present (:mod:`.sequence`).
+present (:mod:`.sequence`) and, for a graph run's, that it was lockstep (the
+``rotor_avc_lockstep`` record, :mod:`.lockstep`: no fault policy stood in for an answer, no
+answer changed, no responder absent).
 """
 from __future__ import annotations
 
@@ -22,9 +24,10 @@ import yaml
 
 from .errors import BagError
 from .integrity import IntegrityReport, TopicData, scan_bag
+from .lockstep import read_lockstep
 from .metadata import CONFIG_RECORD, DEFAULT_QOS, QOS_CHOICES, load_yaml
 from .reader import BagReader
-from .rosbag2 import METADATA_FILE, bagfile_information
+from .rosbag2 import METADATA_FILE, bagfile_information, inside_bag, listed_files
 from .rosbag2_info import check_rosbag2_info
 from .sequence import check_sequence
 from .topics import SAMPLED
@@ -44,17 +47,17 @@ class CheckLine:
 
 
 def bag_files(path) -> tuple[list[Path], dict | None]:
-    """The ``.mcap`` files of a bag and, for a directory, its ``metadata.yaml`` mapping."""
+    """The ``.mcap`` files of a bag and, for a directory, its ``metadata.yaml`` mapping; every
+    file confined to the bag's folder (:func:`.rosbag2.inside_bag`)."""
     path = Path(path)
     if path.is_file():
         return [path], None
     if not path.is_dir():
         raise BagError(path, "no such bag file or directory", fix="check the path")
     body = bagfile_information(path)
-    listed = body.get("relative_file_paths") or []
-    files = [path / str(p) for p in listed]
+    files = listed_files(path, body)
     if not files:
-        files = sorted(path.glob("*.mcap"))
+        files = [inside_bag(path, f.name, "the file") for f in sorted(path.glob("*.mcap"))]
     return files, body
 
 
@@ -76,7 +79,25 @@ def check_bag(path) -> list[CheckLine]:
     lines.append(_metadata_line(path, reports, info))
     if len(reports) == 1 and CONFIG_RECORD in reports[0].metadata and reports[0].ok:
         lines.append(_samples_line(reports[0].path))
+    lines += _lockstep_lines(reports)
     return lines
+
+
+def _lockstep_lines(reports) -> list[CheckLine]:
+    """The lockstep record's verdict (no line for a bag without one)."""
+    out = []
+    for r in reports:
+        try:
+            record = read_lockstep(r.metadata, r.path)
+        except BagError as exc:
+            out.append(CheckLine("lockstep", False, str(exc), "re-record the run"))
+            continue
+        if record is not None:
+            out.append(CheckLine("lockstep", record.ok, record.verdict(),
+                                 "record the run again with fault_policy wait (the default) and "
+                                 "every responder running; a fault study's bag is not a "
+                                 "lockstep run"))
+    return out
 
 
 def _format_lines(reports: list[IntegrityReport]) -> list[CheckLine]:

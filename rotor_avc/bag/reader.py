@@ -32,10 +32,11 @@ from mcap.reader import SeekingReader
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
 from .integrity import verify
+from .lockstep import LockstepRecord, read_lockstep
 from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
-from .records import open_chunk
+from .records import RecordError, chunk_messages, open_chunk
 from .topics import labels_of
 
 _RECOVER_FIX = ("finish it with `rotor-avc bag recover BAG` (recover_bag in Python, or "
@@ -196,6 +197,12 @@ class BagReader:
         record = self.metadata.get(COUNTS_RECORD)
         return None if record is None else decode_counts(record, self.path)
 
+    @property
+    def lockstep(self) -> LockstepRecord | None:
+        """The run's lockstep account (:class:`.lockstep.LockstepRecord`), None for a bag
+        without the ``rotor_avc_lockstep`` record (the in-process simulator's, a foreign one)."""
+        return read_lockstep(self.metadata, self.path)
+
     def check(self, *, require_config: bool = False, require_messages: bool = False) -> None:
         """Raise the BagError a command needs: configuration present, messages present."""
         if require_config:
@@ -296,6 +303,25 @@ class BagReader:
         if not times:
             return np.zeros(0, np.int64)
         return np.sort(np.concatenate(times).astype(np.int64))
+
+    def chunk_log_times(self, topics) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """The log times (ns) of ``topics`` chunk by chunk, in the order of the chunks' start
+        times: ``(chunk start ns, {topic: log times})``, from the message indexes without
+        decompressing a chunk (a chunk without them is read); memory: one chunk's times."""
+        cids = {t: self._channel_id(t) for t in topics}
+        for ci in sorted(self._summary.chunk_indexes, key=lambda c: c.message_start_time):
+            if ci.message_index_offsets:
+                yield ci.message_start_time, {
+                    t: self._message_index(ci.message_index_offsets[cid])[:, 0].astype(np.int64)
+                    for t, cid in cids.items() if cid in ci.message_index_offsets}
+                continue
+            try:
+                msgs = chunk_messages(self._chunk_records(ci))
+            except RecordError as exc:
+                raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
+            yield ci.message_start_time, {t: msgs.log_time[msgs.channel == cid]
+                                          for t, cid in cids.items()
+                                          if np.any(msgs.channel == cid)}
 
     def _indexed_rows(self, cid: int):
         """(times, (N, size) payload bytes) via the message index, or (None, None)."""

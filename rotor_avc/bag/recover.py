@@ -11,12 +11,13 @@ the following bytes for the next chunk whose fixed fields are consistent. The ne
 fresh summary, indexes, statistics and ``rosbag2`` record; the package's ``rotor_avc_counts``
 record is rewritten (recorded = kept, the rest counted as lost), so a comparison sees the gap.
 
-The output is written under a temporary name and renamed when finished: an interrupted recovery
-(Ctrl-C) leaves no partial file. ``mcap recover`` (the Go CLI) does a similar job.
+The output is written under a temporary name and renamed when finished
+(:func:`rotor_avc.output_files.writing`): an interrupted recovery (Ctrl-C) or a full disk leaves
+no partial file, and the operating system's refusal is one line naming the output and the cause.
+``mcap recover`` (the Go CLI) does a similar job.
 """
 from __future__ import annotations
 
-import os
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ import numpy as np
 from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Metadata, Schema, Statistics
 
+from ..output_files import writing
 from . import records as R
 from .errors import BagError
 from .schema_check import hash_problem, standard_text_problem
@@ -69,14 +71,13 @@ def recover_bag(source, target=None, *, compression: str = "zstd") -> Recovery:
         raise BagError(target, "the output file exists", fix="give a new --out name or delete it")
     if not target.parent.is_dir():
         raise BagError(target, "the output directory does not exist", fix="create it first")
-    partial = target.with_name(f".{target.name}.partial-{os.getpid()}")
     try:
-        with open(source, "rb") as src, open(partial, "wb") as out:
-            result = _Recovery(source, src, out, target.name, compression).run()
-        os.replace(partial, target)
-    finally:
-        if partial.exists():
-            partial.unlink()
+        src = open(source, "rb")
+    except OSError as exc:
+        raise BagError(source, f"cannot read the file ({exc.strerror})", fix="check the path "
+                       "and its permissions") from None
+    with src, writing(target) as partial, open(partial, "wb") as out:
+        result = _Recovery(source, src, out, target.name, compression).run()
     result.path = target
     return result
 

@@ -2,11 +2,12 @@
 
 :func:`open_bag` opens a ``.mcap`` file (:class:`~.reader.BagReader`) or a rosbag2 directory
 (:class:`DirectoryBag`, same API: topics, message_count, time_range_ns, metadata, config, counts,
-series, raw_messages, messages, log_times, codec, close, context manager). A directory's
-``metadata.yaml`` (``rosbag2_bagfile_information``, version 9 as Jazzy writes it) lists its files
-in ``relative_file_paths``, in recording order; each file is opened and checked by BagReader, and
-the directory reads as one bag over all of them. Only what reading needs is checked here: the
-file exists and parses, the storage is ``mcap``, every listed file exists.
+series, raw_messages, messages, log_times, chunk_log_times, codec, close, context manager). A
+directory's ``metadata.yaml`` (``rosbag2_bagfile_information``, version 9 as Jazzy writes it)
+lists its files in ``relative_file_paths``, in recording order; each file is opened and checked
+by BagReader, and the directory reads as one bag over all of them. Only what reading needs is
+checked here: the file exists and parses, the storage is ``mcap``, every listed file exists and
+lies in the bag's folder (:func:`inside_bag`: nothing outside it is opened).
 """
 from __future__ import annotations
 
@@ -43,8 +44,12 @@ def bagfile_information(directory: Path) -> dict:
     if not meta_path.is_file():
         raise BagError(directory, f"a directory without {METADATA_FILE}: not a rosbag2 bag",
                        fix="give the bag directory `ros2 bag record` wrote, or a .mcap file")
+    inside_bag(directory, METADATA_FILE, "the file")
     try:
         meta = load_yaml(meta_path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise BagError(meta_path, f"cannot read the file ({exc.strerror})",
+                       fix="check its permissions") from None
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise BagError(meta_path, f"unreadable YAML ({str(exc).splitlines()[0]})",
                        fix="restore metadata.yaml (`ros2 bag reindex` rebuilds it)") from None
@@ -53,6 +58,39 @@ def bagfile_information(directory: Path) -> dict:
         raise BagError(meta_path, "no rosbag2_bagfile_information mapping",
                        fix="restore metadata.yaml (`ros2 bag reindex` rebuilds it)")
     return info
+
+
+def inside_bag(directory: Path, name, where: str) -> Path:
+    """``directory / name`` for a file name the bag lists (``where``: which entry), confined to
+    the bag's folder: an absolute path, a ``..`` leading out or a symbolic link resolving outside
+    is refused (BagError) before anything is opened, so a bag cannot make a reader open a file
+    the user did not name."""
+    meta_path = Path(directory) / METADATA_FILE
+    fix = "list the bag's own files by their names in its folder (`ros2 bag reindex DIR`)"
+    if not isinstance(name, str) or not name:
+        raise BagError(meta_path, f"{where} is not a file name ({name!r})", fix=fix)
+    if Path(name).is_absolute():
+        raise BagError(meta_path, f"{where} {name!r} is an absolute path; a bag lists its "
+                       "files relative to its folder", fix=fix)
+    path = Path(directory) / name
+    try:
+        inside = path.resolve().is_relative_to(Path(directory).resolve())
+    except (OSError, RuntimeError, ValueError):          # too long, a symlink loop, NUL
+        inside = False
+    if not inside:
+        raise BagError(meta_path, f"{where} {name!r} leads outside the bag's folder (through "
+                       "`..` or a symbolic link); it is not opened", fix=fix)
+    return path
+
+
+def listed_files(directory: Path, info: dict) -> list[Path]:
+    """The files ``relative_file_paths`` lists, each confined to the bag's folder
+    (:func:`inside_bag`), after checking that every ``files[i].path`` is confined too."""
+    for i, entry in enumerate(info.get("files") or []):
+        if isinstance(entry, dict) and "path" in entry:
+            inside_bag(directory, entry["path"], f"files[{i}].path")
+    return [inside_bag(directory, name, f"relative_file_paths[{i}]")
+            for i, name in enumerate(info.get("relative_file_paths") or [])]
 
 
 def bag_files(directory: Path) -> list[Path]:
@@ -69,7 +107,7 @@ def bag_files(directory: Path) -> list[Path]:
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         raise BagError(meta_path, "relative_file_paths must list the bag's files",
                        fix="restore metadata.yaml (`ros2 bag reindex` rebuilds it)")
-    files = [directory / name for name in names]
+    files = listed_files(directory, info)
     missing = [str(f.name) for f in files if not f.is_file()]
     if missing:
         raise BagError(directory, f"metadata.yaml lists {', '.join(missing)}, which is missing",
@@ -180,6 +218,14 @@ class DirectoryBag:
 
     def log_times(self, topic: str) -> np.ndarray:
         return np.sort(np.concatenate([r.log_times(topic) for r in self._with(topic)]))
+
+    def chunk_log_times(self, topics) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """BagReader.chunk_log_times over every file, in the order of the chunks' start times."""
+        for name in topics:
+            self._with(name)
+        streams = [r.chunk_log_times([t for t in topics if t in r.topics])
+                   for r in self._readers]
+        yield from heapq.merge(*streams, key=lambda chunk: chunk[0])
 
     # -- closing ---------------------------------------------------------------------------
     def close(self) -> None:

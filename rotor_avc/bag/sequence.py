@@ -11,9 +11,10 @@ repeated, not as an error), every sampled topic must hold the same samples, and 
 recorded must equal those the publishers report as published (the bag's ``rotor_avc_counts``
 record, rotor_avc.nodes.recorder). :func:`check_sequence` returns one :class:`SequenceReport`;
 ``ok`` is False when any sample is missing somewhere, and :meth:`SequenceReport.verdict` says
-which topic lacks how many samples over which time ranges. A run that is complete but shorter
-than its scenario (the plant stopped early on purpose, or the recording was cut at a sample) is
-reported as a note.
+which topic lacks how many samples over which time ranges -- also the last samples, or every
+one, of a sampled topic the bag declares. A run that is complete but shorter than its scenario
+(the plant stopped early on purpose, or the recording was cut at a sample) is reported as a note.
+The check streams (:func:`check_sequence`): its memory does not grow with the run.
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ from ..errors import RotorAvcError
 from .reader import BagReader
 from .topics import SAMPLED
 
-#: at most this many missing ranges are listed per topic
+#: at most this many missing ranges are kept and listed per topic (the rest are counted)
 RANGES_SHOWN = 5
 #: exit status of a command refusing a bag with missing samples (0 pass, 1 fail, 2 unreadable)
 EXIT_INCOMPLETE = 3
@@ -48,17 +49,19 @@ class IncompleteRecordingError(RotorAvcError):
 
 @dataclass
 class TopicGaps:
-    """The samples one topic lacks."""
+    """The samples one topic lacks: ``ranges_s`` the first :data:`RANGES_SHOWN` missing
+    ranges (first, last sample time), ``range_count`` how many there are in all."""
 
     topic: str
     missing: int
     ranges_s: list[tuple[float, float]]
     repeated: int = 0
+    range_count: int = 0
 
     def describe(self) -> str:
         ranges = ", ".join(f"{a:.4f}-{b:.4f} s" if b > a else f"{a:.4f} s"
                            for a, b in self.ranges_s[:RANGES_SHOWN])
-        more = len(self.ranges_s) - RANGES_SHOWN
+        more = max(self.range_count, len(self.ranges_s)) - RANGES_SHOWN
         return (f"{self.topic}: {self.missing} sample(s) missing at {ranges}"
                 + (f" and {more} more range(s)" if more > 0 else ""))
 
@@ -92,7 +95,13 @@ class SequenceReport:
 
 def check_sequence(reader: BagReader, expected_samples: int = 0) -> SequenceReport:
     """The sample sequence of the bag ``reader`` (see the module docstring);
-    ``expected_samples``: the scenario's samples, for the note on an incomplete run."""
+    ``expected_samples``: the scenario's samples, for the note on an incomplete run.
+
+    The log times are read chunk by chunk from the message indexes (``chunk_log_times``) and
+    folded into one :class:`_Sequence` per topic, so memory does not grow with the run: chunks
+    come in the order of their start times, and a sample index is settled only once no later
+    chunk can hold a smaller one (chunks may overlap in time); the rest waits in a buffer
+    bounded by that overlap."""
     rate_hz = (reader.config.get("discretisation") or {}).get("sample_rate_hz")
     if not isinstance(rate_hz, (int, float)) or not rate_hz > 0:
         report = SequenceReport(0.0, 0, int(expected_samples))
@@ -103,26 +112,75 @@ def check_sequence(reader: BagReader, expected_samples: int = 0) -> SequenceRepo
     period_s = 1.0 / float(rate_hz)
     period_ns = period_s * 1e9
     expected = int(expected_samples)
-    topics = [t for t, info in reader.topics.items() if SAMPLED.match(t) and info.count]
-    indices = {}
-    for t in topics:
-        k = np.rint(reader.log_times(t) / period_ns).astype(np.int64)
-        indices[t] = k
-    n = 1 + max((int(k[-1]) for k in indices.values() if len(k)), default=-1)
+    seqs = {t: _Sequence() for t in reader.topics if SAMPLED.match(t)}
+    chunks = reader.chunk_log_times(list(seqs))
+    chunk = next(chunks, None)
+    while chunk is not None:
+        later = next(chunks, None)
+        settled = None if later is None else int(np.rint(later[0] / period_ns))
+        for t, times in chunk[1].items():
+            seqs[t].pending.append(np.rint(times / period_ns).astype(np.int64))
+        for seq in seqs.values():
+            seq.settle(settled)
+        chunk = later
+    n = 1 + max((seq.last for seq in seqs.values()), default=-1)
     report = SequenceReport(period_s, n, expected)
-    for t, k in indices.items():
-        unique = np.unique(k)
-        if len(unique) < len(k):
-            report.repeated[t] = len(k) - len(unique)
-        missing = np.setdiff1d(np.arange(n), unique, assume_unique=True)
-        if len(missing):
-            report.gaps.append(TopicGaps(t, len(missing), _ranges(missing, period_s),
-                                         report.repeated.get(t, 0)))
+    for t, seq in seqs.items():
+        seq.finish(n)
+        if seq.repeated:
+            report.repeated[t] = seq.repeated
+        if seq.missing:
+            report.gaps.append(TopicGaps(t, seq.missing, [(a * period_s, b * period_s)
+                                                          for a, b in seq.ranges],
+                                         seq.repeated, seq.range_count))
     _check_counts(reader, report)
     if expected and n < expected and report.ok:
         report.notes.append(f"incomplete run: {n} of the scenario's {expected} samples "
                             f"({n * period_s:.4g} of {expected * period_s:.4g} s) were recorded")
     return report
+
+
+class _Sequence:
+    """One topic's sample indices, settled in ascending order: the last index settled, the
+    missing samples (count, the first :data:`RANGES_SHOWN` ranges, the number of ranges) and
+    the repeats; ``pending`` holds indices not yet settled."""
+
+    def __init__(self):
+        self.last = -1
+        self.missing = self.repeated = self.range_count = 0
+        self.ranges: list[tuple[int, int]] = []
+        self.pending: list[np.ndarray] = []
+
+    def settle(self, below: int | None) -> None:
+        """Settle every pending index below ``below`` (all of them for None)."""
+        if not self.pending:
+            return
+        k = np.sort(np.concatenate(self.pending))
+        cut = len(k) if below is None else int(np.searchsorted(k, below))
+        self.pending = [k[cut:]] if cut < len(k) else []
+        k = k[:cut]
+        if not len(k):
+            return
+        prev = np.concatenate([[self.last], k[:-1]])
+        self.repeated += int(np.count_nonzero(k == prev))
+        self._gaps(np.maximum(prev + 1, 0), k - 1)
+        self.last = max(self.last, int(k[-1]))
+
+    def finish(self, n: int) -> None:
+        """Once everything is settled: the samples after the last one up to ``n - 1`` are
+        missing (a topic that lost its tail, or every message)."""
+        self._gaps(np.array([self.last + 1]), np.array([n - 1]))
+
+    def _gaps(self, first: np.ndarray, last: np.ndarray) -> None:
+        """Count the missing ranges ``first[i]..last[i]`` (inclusive; empty where last < first)."""
+        gap = last >= first
+        if not np.any(gap):
+            return
+        first, last = first[gap], last[gap]
+        self.missing += int(np.sum(last - first + 1))
+        self.range_count += len(first)
+        keep = RANGES_SHOWN - len(self.ranges)
+        self.ranges += [(int(a), int(b)) for a, b in zip(first[:keep], last[:keep])]
 
 
 def _check_counts(reader: BagReader, report: SequenceReport) -> None:
@@ -144,11 +202,3 @@ def require_complete(reader: BagReader, expected_samples: int = 0) -> SequenceRe
     if not report.ok:
         raise IncompleteRecordingError(reader.path, report)
     return report
-
-
-def _ranges(missing: np.ndarray, period_s: float) -> list[tuple[float, float]]:
-    """Consecutive runs of missing sample indices as (first, last) times in s."""
-    breaks = np.flatnonzero(np.diff(missing) > 1)
-    starts = np.concatenate([[0], breaks + 1])
-    ends = np.concatenate([breaks, [len(missing) - 1]])
-    return [(missing[a] * period_s, missing[b] * period_s) for a, b in zip(starts, ends)]

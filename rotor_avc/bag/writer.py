@@ -15,9 +15,13 @@ text, :mod:`.msgdefs`); one channel per topic (message encoding ``cdr``, metadat
 time in ns; the run configuration in the ``rotor_avc`` metadata record, written before the first
 message; the ``rosbag2`` metadata record on close (:mod:`.metadata`). Crash safety is described
 in :mod:`.mcap_writer`; :func:`rotor_avc.bag.recover.recover_bag` finishes a killed recording.
+An ``OSError`` while writing (disk full, read-only file system, file-size limit, ...) is raised as
+:class:`rotor_avc.output_files.OutputError` (one line: the path, the cause, the fix); the writer
+is then closed and the file left as far as it got (its flushed chunks are recoverable).
 """
 from __future__ import annotations
 
+import contextlib
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +30,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .. import __version__
+from ..output_files import OutputError
 from .cdr import CdrCodec, CdrError
 from .errors import BagError
 from .mcap_writer import MESSAGE_DTYPE, McapSink
@@ -73,15 +78,19 @@ class BagWriter:
         try:
             self._file = open(self.path, "wb")
         except OSError as exc:
-            raise BagError(self.path, f"cannot create the file ({exc.strerror})") from None
+            raise OutputError(self.path, exc) from None
         self._compression = compression
-        self._sink = McapSink(self._file, "ros2", LIBRARY, compression, chunk_size, level)
         self._specs = known_specs()
         self._schemas: dict[str, int] = {}
         self._topics: dict[str, _Topic] = {}
         self._closed = False
-        if record is not None:
-            self._sink.add_metadata(CONFIG_RECORD, record)
+        self._failed: OutputError | None = None
+        try:
+            self._sink = McapSink(self._file, "ros2", LIBRARY, compression, chunk_size, level)
+            if record is not None:
+                self._sink.add_metadata(CONFIG_RECORD, record)
+        except OSError as exc:
+            raise self._fail(exc) from None
 
     # -- topics ----------------------------------------------------------------------------
     def add_topic(self, topic: str, msg_type: str | None = None,
@@ -100,11 +109,14 @@ class BagWriter:
         except MsgDefError as exc:
             raise BagError(self.path, f"topic {topic}: {exc}") from None
         profiles = qos_profiles(qos)
-        if name not in self._schemas:
-            self._schemas[name] = self._sink.add_schema(name, "ros2msg", text.encode())
-        channel = self._sink.add_channel(topic, "cdr", self._schemas[name],
-                                         {"offered_qos_profiles": qos_yaml(profiles),
-                                          "topic_type_hash": digest})
+        try:
+            if name not in self._schemas:
+                self._schemas[name] = self._sink.add_schema(name, "ros2msg", text.encode())
+            channel = self._sink.add_channel(topic, "cdr", self._schemas[name],
+                                             {"offered_qos_profiles": qos_yaml(profiles),
+                                              "topic_type_hash": digest})
+        except OSError as exc:
+            raise self._fail(exc) from None
         self._topics[topic] = _Topic(channel, name, profiles, digest, codec)
 
     def _topic(self, topic: str) -> _Topic:
@@ -130,6 +142,8 @@ class BagWriter:
         except (struct.error, TypeError) as exc:
             raise BagError(self.path, f"topic {topic}: bad time, sequence or data ({exc})",
                            fix="times are integer ns >= 0, data is bytes") from None
+        except OSError as exc:
+            raise self._fail(exc) from None
 
     def write(self, topic: str, message: Mapping, time_ns: int,
               publish_time_ns: int | None = None) -> None:
@@ -149,6 +163,13 @@ class BagWriter:
         prepared = [self._prepare(s) for s in streams]
         if not prepared:
             return
+        try:
+            self._write_streams(streams, prepared)
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def _write_streams(self, streams, prepared) -> None:
+        """The writes of :meth:`write_streams`, chunk by chunk."""
         self._sink.flush_chunk()
         times = np.concatenate([s.time_ns for s in streams])
         owner = np.concatenate([np.full(len(s.time_ns), k) for k, s in enumerate(streams)])
@@ -208,8 +229,19 @@ class BagWriter:
 
     # -- the end ---------------------------------------------------------------------------
     def _check_open(self) -> None:
+        if self._failed is not None:
+            raise self._failed
         if self._closed:
             raise BagError(self.path, "the bag is already closed")
+
+    def _fail(self, exc: OSError) -> OutputError:
+        """The writer closed after ``exc`` (disk full, ...), the file left as far as it got;
+        returns the error to raise."""
+        self._failed = OutputError(self.path, exc)
+        self._closed = True
+        with contextlib.suppress(OSError):
+            self._file.close()
+        return self._failed
 
     @property
     def recorded_counts(self) -> dict[str, int]:
@@ -217,19 +249,31 @@ class BagWriter:
         return {name: t.sequence for name, t in self._topics.items()}
 
     def close(self, published: Mapping[str, int | None] | None = None,
-              lost: Mapping[str, int] | None = None) -> None:
+              lost: Mapping[str, int] | None = None,
+              records: Mapping[str, Mapping[str, str]] | None = None) -> None:
         """Finish the file: last chunk, message counts, rosbag2 metadata record, summary, footer.
 
         Every bag carries, per topic, the messages recorded and -- from the publishers' side --
         published (``published``; default: as many as recorded, for a writer that is its own
-        publisher) and known lost (``lost``, default 0), in the ``rotor_avc_counts`` record."""
+        publisher) and known lost (``lost``, default 0), in the ``rotor_avc_counts`` record;
+        ``records``: more metadata records (name -> string mapping), e.g. the recorder's
+        ``rotor_avc_lockstep`` (:mod:`.lockstep`)."""
         if self._closed:
             return
         self._closed = True
+        try:
+            self._finish(published, lost, records)
+        except OSError as exc:
+            raise self._fail(exc) from None
+
+    def _finish(self, published, lost, records) -> None:
+        """The writes of :meth:`close`."""
         sink = self._sink
         sink.flush_chunk()
         recorded = {name: sink.counts[t.channel_id] for name, t in self._topics.items()}
         published = dict(recorded if published is None else published)
+        for name, record in (records or {}).items():
+            sink.add_metadata(name, {str(k): str(v) for k, v in record.items()})
         sink.add_metadata(COUNTS_RECORD, encode_counts(
             {name: {"published": published.get(name), "recorded": n,
                     "lost": (lost or {}).get(name, 0)} for name, n in recorded.items()}))

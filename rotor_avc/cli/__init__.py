@@ -3,7 +3,8 @@
 Each command module defines ``NAME``, ``HELP`` (one line), ``EXAMPLE`` and ``add_arguments(p)``
 and ``run(args) -> int``. Errors the user can fix (:class:`rotor_avc.errors.RotorAvcError`) are
 printed as one line and exit with status 2 (or the error's own ``exit_status``, e.g. 3 for a
-recording with missing samples); Ctrl-C ends a command with one line and exit status 130;
+recording with missing samples, 74 for an output the operating system refuses to write:
+:mod:`rotor_avc.output_files`); Ctrl-C ends a command with one line and exit status 130;
 nothing else is caught. Every command takes ``--max-memory-gb`` and ``--max-hours``, the limits
 of rotor_avc.resources.
 """
@@ -29,7 +30,9 @@ COMMANDS = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of the command ``only`` (each command module imports
+    what it runs, so one command's parser starts without the others' imports)."""
     parser = argparse.ArgumentParser(
         prog="rotor-avc",
         description="Active vibration control of rotating machines: models, analyses, "
@@ -37,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Run `rotor-avc COMMAND --help` for a command's options and an example.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMANDS:
+    for name in COMMANDS if only is None else [only]:
         mod = importlib.import_module(f"{__name__}.{name.replace('-', '_')}")
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP,
                            epilog="example:\n  " + mod.EXAMPLE,
@@ -54,7 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else argv
+    args = build_parser(argv[0] if argv and argv[0] in COMMANDS else None).parse_args(argv)
     for name, value in ((ENV_VAR, args.max_memory_gb), (TIME_ENV_VAR, args.max_hours)):
         if value is not None:
             os.environ[name] = repr(value)

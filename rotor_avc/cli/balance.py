@@ -19,6 +19,7 @@ from ..config import load_config
 from ..machine import load_machine, model_supports
 from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_machine_runs,
                                     write_rigid_runs)
+from ..output_files import make_folder
 from .common import nonnegative_float, output_folder
 
 NAME = "balance"
@@ -38,7 +39,7 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     cfg = load_config(args.scenario)
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     if model_supports(cfg, "rigid_balancer"):
         return _rigid(cfg, args)
     return _machine(load_machine(args.scenario), args)

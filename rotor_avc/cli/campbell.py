@@ -11,6 +11,7 @@ from ..errors import ConfigError
 from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
 from ..reports.campbell_report import write_campbell_html
+from ..output_files import make_folder, open_text
 from .common import output_folder, speed_range_from_zero_hz
 
 NAME = "campbell"
@@ -80,9 +81,9 @@ def run(args) -> int:
         else "loops open"
     title = f"{machine.plant.name}: Campbell diagram ({loops}, damping: {args.damping})"
     if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
+        make_folder(args.out)
         onsets = cd.instability_onsets()
-        with open(args.out / "campbell.json", "w") as fh:
+        with open_text(args.out / "campbell.json") as fh:
             json.dump({**data, "instability_onsets": onsets, "loops": loops,
                        "damping": args.damping, "machine": machine.plant.name}, fh, indent=1)
         png = plot_campbell(cd, args.out / "campbell.png", title, args.colour, args.orders,

@@ -96,7 +96,8 @@ def output_folder(text: str) -> Path:
 
 def output_file(text: str, suffixes: tuple[str, ...] = ()) -> Path:
     """``--out FILE``: a file name (ending in one of ``suffixes``) whose folder can be created;
-    an existing file is replaced only by a complete new one (:func:`partial_name`)."""
+    an existing file is replaced only by a complete new one
+    (:func:`rotor_avc.output_files.writing`)."""
     path = Path(text)
     if suffixes and path.suffix not in suffixes:
         raise argparse.ArgumentTypeError(
@@ -130,7 +131,3 @@ def interrupt_flag():
         for sig, old in previous.items():
             signal.signal(sig, old)
 
-
-def partial_name(path: Path) -> Path:
-    """The temporary name an output is written under before it is renamed to ``path``."""
-    return path.with_name(f".{path.stem}.partial{path.suffix}")

@@ -33,9 +33,9 @@ def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="the recorded run: a .mcap bag with the run's "
                                           "configuration (rotor-avc simulate --out, recorder), "
                                           "or any .mcap file or rosbag2 directory with --map")
-    p.add_argument("--config", help="machine/scenario config of the recorded machine (with "
-                                    "--map): model, controllers, simulation.sample_rate_hz, "
-                                    "unbalance, test_signal")
+    p.add_argument("--config", help="machine config of the recorded machine (with --map); a "
+                                    "`simulation:` section is optional (sample rate, unbalance, "
+                                    "test_signal): speeds and duration come from the recording")
     p.add_argument("--map", type=Path, help="mapping file: topics and fields -> model signals, "
                                             "shaft source, unbalance reference (README)")
     p.add_argument("--out", type=output_folder, default=None,

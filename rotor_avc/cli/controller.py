@@ -11,6 +11,7 @@ from ..control.block import build_digital_controllers
 from ..errors import ModelError
 from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
+from ..output_files import make_folder
 from .common import nonnegative_float, output_folder, warn
 
 NAME = "controller"
@@ -63,7 +64,7 @@ def run(args) -> int:
     print(f"{machine.plant.name} foot {args.foot}: {ctrl.describe()}  (force = -G_c * signal)")
     print(f"continuous G_c(s): num = {fmt(ctrl.num)}, den = {fmt(ctrl.den)}")
     print("discrete " + block.describe())
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     path = plot_bode(ctrl, block.tf, args.out / f"controller_{args.foot}_bode.png",
                      f"{machine.plant.name} {args.foot}: {ctrl.describe()}")
     print(f"wrote {path}")

@@ -29,6 +29,7 @@ from ..analysis.poles import machine_poles
 from ..errors import RotorAvcError
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
+from ..output_files import make_folder, write_text
 from .compare import report
 from .common import output_folder
 
@@ -56,7 +57,7 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     t0 = time.monotonic()
     summary = {"analysis": analysis(args.out / "analysis")}
     print("\n== The seed-000 machine in the ROS graph: stepped run-up, loops open and closed")
@@ -70,7 +71,7 @@ def run(args) -> int:
         files = report(comps[case], bag, args.out / f"compare_{case}")
         summary[f"compare_{case}"] = {"pass": comps[case].passed, "report": str(files["index"])}
     summary["reduction"] = reductions(comps["case2"], comps["case3"])
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=1))
+    write_text(args.out / "summary.json", json.dumps(summary, indent=1))
     print(f"\nDone in {time.monotonic() - t0:.0f} s. Bags: {', '.join(str(b) for b in bags.values())}")
     print(f"Reports: {args.out.resolve()}/compare_case2/index.html, .../compare_case3/index.html; "
           f"pole tables and FRFs in {args.out.resolve()}/analysis; summary.json")
@@ -80,7 +81,7 @@ def run(args) -> int:
 def analysis(out: Path) -> dict:
     """Pole tables and FRFs of cases 1-3 (the analysis part of the seed-000 paper)."""
     print("== Seed 000 (Werner 2021): poles and unbalance FRFs, cases 1-3")
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     summary = {}
     for case in ANALYSIS_CASES:
         machine = load_machine(case)
@@ -95,8 +96,8 @@ def analysis(out: Path) -> dict:
                       f"zeta {r['damping_ratio']:.3f}")
             print(f"  max Re = {res.max_real:.3f} 1/s -> {'stable' if res.stable else 'UNSTABLE'}")
         case_dir = out / case
-        case_dir.mkdir(exist_ok=True)
-        (case_dir / "poles.json").write_text(json.dumps(
+        make_folder(case_dir)
+        write_text(case_dir / "poles.json", json.dumps(
             {str(f): {"poles": r.table(), "stable": r.stable, "w_F_history": r.history}
              for f, r in poles.items()}, indent=1))
         rng = machine.analysis.frf_speed_hz
@@ -143,7 +144,7 @@ def _record_in_process(scenario: str, bag: Path, why: str) -> Path:
     print(f"{scenario}: in-process lockstep loop ({why}; identical results to the ROS graph)")
     sc = load_scenario(scenario)
     ts = sc.run(progress=True)
-    bag.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(bag.parent)
     if bag.exists():
         bag.unlink()
     return write_run_bag(bag, sc, ts)

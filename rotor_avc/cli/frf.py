@@ -6,6 +6,7 @@ import numpy as np
 from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
+from ..output_files import make_folder
 from .common import config_frf_speeds_hz, output_folder, speed_range_hz
 
 NAME = "frf"
@@ -28,7 +29,7 @@ def run(args) -> int:
     if speeds_hz is None:
         speeds_hz = config_frf_speeds_hz(machine)
     frf = unbalance_frf(machine.loop, 2 * np.pi * speeds_hz)
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     csv_path = write_frf_csv(frf, args.out / "frf.csv")
     print(f"wrote {csv_path} ({len(frf.responses)} responses x {len(speeds_hz)} speeds)")
     if not args.no_plots:

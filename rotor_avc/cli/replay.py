@@ -8,13 +8,18 @@ package's run configuration, samples missing on a sampled topic or published but
 one verdict, exit status 3, rotor_avc.bag.sequence); rclpy is imported only then, so the rest
 of the command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
 foot controller re-driven with the recorded foot accelerations) are compared with the recorded
-answers of the same stamps, and the exit status is 1 when any differs by more than TOL.
+answers of the same stamps, and the exit status is 1 when any differs by more than TOL, or when
+the bag says its run was not lockstep (rotor_avc.bag.lockstep: the plant stepped without some
+of the recorded answers, so they are no reference), said before anything is replayed. A timed
+replay that cannot hold ``--rate`` says so (a warning with the achieved rate and the late log
+times); that alone never fails the check (rotor_avc.nodes.replay).
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+from ..bag.lockstep import read_lockstep
 from ..bag.metadata import CONFIG_RECORD
 from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
@@ -71,7 +76,8 @@ def add_arguments(p) -> None:
     p.add_argument("--discovery-timeout", type=nonnegative_float, default=3.0, metavar="S",
                    help="wait at most S seconds for subscribers before starting (default 3)")
     p.add_argument("--answer-timeout", type=positive_float, default=5.0, metavar="S",
-                   help="--fast: give up when an answer takes longer than S seconds (default 5)")
+                   help="give up when an answer takes longer than S seconds (--fast; timed: when "
+                        "waiting for the graph to catch up) (default 5)")
     p.add_argument("--executor", choices=("events", "single_threaded"), default="events",
                    help="rclpy executor (default events)")
 
@@ -81,6 +87,13 @@ def run(args) -> int:
         if CONFIG_RECORD in reader.metadata:
             for note in require_complete(reader).notes:
                 print(f"note: {note}")
+            lockstep = read_lockstep(reader.metadata, args.bag)
+            if lockstep is not None and not lockstep.ok:
+                if args.check is not None:
+                    print(f"check: FAIL -- the recorded answers are no reference: "
+                          f"{lockstep.verdict()}")
+                    return 1
+                print(f"note: {lockstep.verdict()}")
         else:
             print("note: the bag carries no rotor_avc run configuration (a recording of another "
                   "source): its sample sequence is not checked")
@@ -100,6 +113,8 @@ def run(args) -> int:
         sent = sum(result.published.values())
         print(f"published {sent} messages at {result.samples} log times in {result.wall_s:.2f} s"
               f" ({result.samples / max(result.wall_s, 1e-9):.0f} log times/s)")
+        if result.rate_warning():                     # said, never a failure by itself
+            print(f"warning: {result.rate_warning()}")
         for trigger, answer in result.waited_for.items():
             print(f"  {trigger} -> {answer}")
         for trigger in result.unanswered:

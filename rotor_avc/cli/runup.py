@@ -9,19 +9,23 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.api684 import format_table
+from ..compare.mapped_run import read_mapped_run
 from ..compare.recorded_run import read_run
+from ..errors import ConfigError
 from ..compare.runup_views import (api684_tables, channel_unit, housing_channels, one_x_track,
                                     orbit_pairs, orbits, run_waterfall)
 from ..interactive.jsonable import jsonable
 from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
 from ..reports.runup_report import api_rows, write_runup_html
+from ..output_files import make_folder, write_text
 from .common import output_folder
 
 NAME = "runup"
 HELP = ("Run-up views of a bag: waterfall (spectra over speed, orders marked), 1x Bode and polar "
         "plots per channel against the bag's model, bearing-housing orbits, and API 684 "
         "unbalance-response checks of the measured and the modelled 1x.")
-EXAMPLE = "rotor-avc runup runup.mcap --operating-hz 28:30 --orbit-hz 10,20 --out out/runup"
+EXAMPLE = ("rotor-avc runup runup.mcap --operating-hz 28:30 --orbit-hz 10,20 --out out/runup\n"
+           "  rotor-avc runup rig_runup/ --config machine.yaml --map map.yaml --out out/rig")
 
 
 def _hz_list(text: str) -> list[float]:
@@ -46,7 +50,11 @@ def operating_range(text: str) -> tuple[float, float]:
 
 
 def add_arguments(p) -> None:
-    p.add_argument("bag", type=Path, help="a run-up recorded by `rotor-avc simulate` or the recorder")
+    p.add_argument("bag", type=Path, help="a run-up recorded by `rotor-avc simulate` or the "
+                                          "recorder, or any recording with --config and --map")
+    p.add_argument("--config", help="machine config of the recorded machine (with --map), as "
+                                    "`rotor-avc compare` takes it")
+    p.add_argument("--map", type=Path, help="mapping file of the recording (with --config)")
     p.add_argument("--out", type=output_folder, required=True, help="output folder (created)")
     p.add_argument("--channels", nargs="+", default=None, metavar="NAME",
                    help="channels for the 1x plots, orbits and API 684 checks (default: the "
@@ -64,7 +72,12 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    run_ = read_run(args.bag)
+    if (args.config is None) != (args.map is None):
+        raise ConfigError("--config/--map", "a mapped recording needs both",
+                          fix="give --config MACHINE.yaml and --map MAP.yaml, or neither for a "
+                              "bag this package wrote")
+    run_ = (read_run(args.bag) if args.map is None
+            else read_mapped_run(args.bag, args.config, args.map))
     channels = args.channels or housing_channels(run_)
     track = one_x_track(run_, channels)
     top_hz = float(track.speed_hz.max())
@@ -74,7 +87,7 @@ def run(args) -> int:
     orbit_speeds = args.orbit_hz or [top_hz / 3, 2 * top_hz / 3]
     orbs = orbits(run_, track, orbit_speeds)
     tables = api684_tables(track, operating)
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     unit = args.speed_unit
     written = [plot_waterfall(wf, channel_unit(run_, wf_channel), args.out / "waterfall.png", unit)]
     for c in channels:
@@ -82,7 +95,7 @@ def run(args) -> int:
         written.append(plot_polar(track, c, args.out / f"polar_{c}.png", unit))
     if orbs:
         written.append(plot_orbits(orbs, args.out / "orbits.png", unit))
-    (args.out / "api684.json").write_text(json.dumps(jsonable({
+    write_text(args.out / "api684.json", json.dumps(jsonable({
         "operating_speed_hz": list(operating),
         "channels": {c: {k: api_rows(v) for k, v in both.items()} for c, both in tables.items()}}),
         indent=1))

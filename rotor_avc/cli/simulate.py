@@ -10,7 +10,8 @@ from ..recording import stream_run_bag
 from ..resources import check_disk, check_time
 from ..scenario import load_scenario
 from ..sim.timeseries import save_blocks
-from .common import EXIT_INTERRUPTED, interrupt_flag, output_file, partial_name, warn
+from ..output_files import writing
+from .common import EXIT_INTERRUPTED, interrupt_flag, output_file, warn
 
 NAME = "simulate"
 HELP = ("Run a simulation scenario (machine config + `simulation:` section) in the in-process "
@@ -40,16 +41,14 @@ def run(args) -> int:
     print(f"{plant.name}: {scenario.duration_s:g} s at {1 / scenario.sample_period_s:g} Hz "
           f"({scenario.n_steps} samples), {len(scenario.machine.controllers)} controller(s), "
           f"{scenario.damping.describe()}, start: {scenario.initial_state}", flush=True)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    partial = partial_name(args.out)
     t0 = time.perf_counter()
     controllers = scenario.controllers()
     watch = DivergenceWatch(check, scenario.n_steps, controllers)
 
-    def watched(blocks):
+    def watched(blocks, partial):
         """The blocks, each checked for overflow (the growth is judged at the end); after the
-        first, the whole run's time and output size are estimated and refused above the
-        limits."""
+        first, the whole run's time and output size (written to ``partial``) are estimated and
+        refused above the limits."""
         first = True
         for ts in blocks:
             why = watch.feed(ts)
@@ -59,20 +58,16 @@ def run(args) -> int:
             if first:
                 _check_budget(ts, scenario.n_steps, time.perf_counter() - t0, partial)
                 first = False
-    try:
+    with writing(args.out) as partial:
         with interrupt_flag() as interrupted, np.errstate(over="ignore", invalid="ignore"):
             blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,
-                                                 controllers=controllers))
+                                                 controllers=controllers), partial)
             n, peaks, units = _summary(
                 stream_run_bag(partial, scenario, blocks) if args.out.suffix == ".mcap"
                 else save_blocks(partial, blocks, scenario.n_steps))
         why = watch.verdict() if n == scenario.n_steps else None
         if why:
             raise DivergenceError(f"{why} -- nothing written")
-        if partial.exists():
-            partial.replace(args.out)
-    finally:
-        partial.unlink(missing_ok=True)
     wall = time.perf_counter() - t0
     for text in fault_summary(controllers):
         warn(NAME, text)

@@ -10,7 +10,9 @@ from ..config import load_config
 from ..errors import ConfigError
 from ..reports.stability_files import plot_campbell, plot_map, write_study_rows, write_threshold
 from ..reports.stability_report import write_stability_study_html
-from ..studies.backends import add_backend_arguments, backend_from_args
+from ..studies.backends import (BACKEND_OPTIONS, add_backend_arguments, backend_from_args,
+                                check_scheduler_arg)
+from ..output_files import make_folder
 from .common import output_folder
 
 NAME = "stability"
@@ -42,6 +44,12 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
+    check_scheduler_arg(args.scheduler)
+    if not (args.study or args.vary):
+        given = [opt for dest, opt in BACKEND_OPTIONS.items() if getattr(args, dest) is not None]
+        if given:
+            raise ConfigError(given[0], "applies to maps (--vary, --study) only",
+                              fix="leave it out for a single threshold")
     cfg = with_variants(load_config(args.config), args.variant)
     if args.study and args.vary:
         raise ConfigError("--vary", "--study and --vary both given",
@@ -51,7 +59,7 @@ def run(args) -> int:
     else:
         varies = [parse_vary(text) for text in args.vary]
     if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
+        make_folder(args.out)
     if varies:
         return _run_study(cfg, varies, args)
     machine, result = machine_threshold(cfg)

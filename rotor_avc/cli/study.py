@@ -15,8 +15,10 @@ from ..analysis.stability_study import parse_vary
 from ..control.spec import FEEDBACK_ORDER
 from ..errors import ConfigError
 from ..machine import load_machine
+from ..output_files import make_folder
 from ..reports.gain_study_files import write_gain_study
-from ..studies.backends import add_backend_arguments, backend_from_args
+from ..studies.backends import (BACKEND_OPTIONS, add_backend_arguments, backend_from_args,
+                                check_scheduler_arg)
 from . import robustness, strategies
 from .common import output_folder
 
@@ -91,6 +93,9 @@ def run(args) -> int:
     for other in MODES.values():
         if other is not mode:
             _refuse(args, other.OPTIONS, which)
+    if mode is strategies:
+        _refuse(args, BACKEND_OPTIONS, which)
+    check_scheduler_arg(args.scheduler)
     if mode is not None:
         if args.target is None:
             raise ConfigError("CONFIG", f"no machine config given after `{args.config}`",
@@ -102,6 +107,7 @@ def run(args) -> int:
                           fix="write rotor-avc study MODE CONFIG for a study mode (modes: "
                               + ", ".join(MODES) + ")")
     args.out = args.out or Path("out/study")
+    backend = backend_from_args(args.workers, args.scheduler)
     machine = load_machine(args.config)
     study_cfg = machine.analysis.study
     sec = machine.config.section("analysis", {}).section("study", {})
@@ -117,7 +123,7 @@ def run(args) -> int:
     if machine.controllers:
         print(f"note: the config's controllers ({', '.join(machine.controllers)}) are replaced "
               "by the swept ones")
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_folder(args.out)
     for kind in kinds:
         if not args.gains and getattr(study_cfg.gains, kind) is None:
             sec.section("gains", {}).raw(kind)               # raises "missing" with the fix
@@ -127,7 +133,7 @@ def run(args) -> int:
                            args.sweep, _fixed(args.fixed),
                            study_cfg.window_rpm, study_cfg.peak_fraction,
                            None if study_cfg.resonances_of is None else list(study_cfg.resonances_of),
-                           backend_from_args(args.workers, args.scheduler), args.batch_size)
+                           backend, args.batch_size)
         stem = args.out / f"{machine.plant.name}_{kind}"
         for path in write_gain_study(study, stem, not args.no_plots):
             print(f"wrote {path}")

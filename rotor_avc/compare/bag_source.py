@@ -5,11 +5,11 @@ topics and sample matching are shared with it), but read chunk by chunk through 
 indexes (:meth:`rotor_avc.bag.reader.BagReader.chunk_rows`), about :data:`BLOCK_S` seconds of
 log time decoded at once per topic (fixed-size CDR rows, as this package's bags hold), and cut
 into constant-speed dwells as they come; only the current dwell's last
-:data:`~rotor_avc.compare.recorded_run.MAX_DWELL_SAMPLES` samples are kept. So the memory of a
-comparison of stepped or constant-speed runs is bounded by one dwell's tail and one block,
-whatever the recording's length (the sequence check before it still holds every message's log
-time, 8 bytes each). A run without dwells (a run-up) is analysed over its whole record:
-:meth:`BagSource.whole` reads it into memory.
+:data:`~rotor_avc.compare.recorded_run.MAX_DWELL_SAMPLES` samples are kept. A run without dwells
+(a run-up) is order-tracked block by block (:meth:`BagSource.blocks`,
+:func:`rotor_avc.analysis.order_tracking.run_up_stream`), keeping one window. So the memory of a
+comparison is bounded by one dwell's tail (or one run-up window) and one block, whatever the
+recording's length.
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ import numpy as np
 from ..bag import BagError, BagReader
 from ..bag.reader import TopicSeries
 from ..bag.topics import labels_of
-from .recorded_run import (MAX_DWELL_SAMPLES, dropped_note, matched, open_run, read_run, signals,
+from .recorded_run import (MAX_DWELL_SAMPLES, dropped_note, matched, open_run, signals,
                            tail_dwell, test_source, too_short)
 
 #: log time read and decoded at once (s)
@@ -100,6 +100,9 @@ class BagSource:
         self.test_source = test_source(self.opened)
         self.dropped = 0
 
+    #: nothing is assumed of the package's own bags (their configuration is recorded)
+    assumptions: dict = {}
+    tracking = None
     sample_period_s = property(lambda self: self.scenario.sample_period_s)
     machine = property(lambda self: self.scenario.machine)
     has_test_force = property(lambda self: self.scenario.test_force is not None)
@@ -109,10 +112,7 @@ class BagSource:
         """The bag's notes (after a pass: with the samples dropped in it)."""
         return self.opened.notes + ([dropped_note(self.dropped)] if self.dropped else [])
 
-    def whole(self):
-        return read_run(self.path, integrity=False)         # checked when opened
-
-    def _blocks(self):
+    def blocks(self):
         """``(time_s, angle_rad, speed_rad_s, channels, test_force)`` per block, in order."""
         self.dropped, matched_samples = 0, 0
         with BagReader(self.path) as bag:
@@ -130,7 +130,7 @@ class BagSource:
     def dwells(self):
         """The constant-speed dwells at positive speed, in time order, one at a time."""
         pieces, total, last = [], 0, None
-        for block in self._blocks():
+        for block in self.blocks():
             w = block[2]
             prev = np.concatenate([[w[0] if last is None else last], w[:-1]])
             jumps = np.abs(w - prev) > REL_TOL * np.maximum(np.abs(w), 1e-3)

@@ -231,6 +231,9 @@ def _no_verdict_reason(run: RecordedRun, one: OneX | None, bbs: list[Broadband],
     if one is None and not bbs:
         return ("nothing to compare: no 1x response (see the notes) and no broadband dwell of a "
                 "test force")
+    if run.has_test_force and not bbs:
+        return ("the test force's dwells give no broadband estimate (see the notes: too short, "
+                "or too gapped for the Welch segments) and its response makes the 1x unrated")
     if one is not None:
         ch = one.channels["sampled"]
         unsettled = sum(int(c["unsettled"].sum()) for c in ch.values() if "unsettled" in c)

@@ -81,7 +81,8 @@ from ..models.plant import Output
 from ..analysis import order_tracking
 from ..closed_loop.loop import ClosedLoop
 from ..closed_loop.frf import unbalance_frf
-from ..analysis.frf_estimate import FrfEstimate, estimate_frf
+from ..analysis.frf_estimate import (MIN_AVERAGES, MIN_SEGMENT, FrfEstimate, contiguous_runs,
+                                     estimate_frf, estimate_frf_gapped, gapped_segment_length)
 from ..analysis.poles import closed_loop_poles
 from .bag_source import BagSource
 from .recorded_run import MAX_DWELL_SAMPLES, RecordedRun, read_run
@@ -180,6 +181,8 @@ def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
 def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
     """Order tracking of :func:`one_x_channels`: ``(OrderTrack, method, settings)``."""
     names = one_x_channels(run)
+    if run.tracking is not None:
+        return run.tracking(names, u_ref, RUNUP_REVOLUTIONS)
     tracks = []
     for d in run.dwells():                     # from the start of each dwell's second half
         cut = slice(d.settle_start, None)
@@ -194,15 +197,8 @@ def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
             "settle_fraction": 0.5, "min_revolutions": 4,
             "window": "rectangular, whole revolutions",
             "max_samples_per_dwell": MAX_DWELL_SAMPLES}
-    whole = run.whole()
-    signals = {n: whole.channels[n] for n in names}
-    t, theta, w = whole.time_s, whole.angle_rad, whole.speed_rad_s
-    turning = np.flatnonzero(w > 0)
-    if turning.size < 3:
-        raise ModelError("order tracking: the rotor never turns in this run")
-    cut = slice(turning[0], turning[-1] + 1)
-    track = order_tracking.run_up(t[cut], theta[cut], {n: v[cut] for n, v in signals.items()},
-                                  u_ref, revolutions=RUNUP_REVOLUTIONS)
+    track = order_tracking.run_up_stream(run.blocks(), names, u_ref,
+                                         revolutions=RUNUP_REVOLUTIONS)
     return track, "run-up windows (quasi-stationary)", {
         "revolutions_per_window": RUNUP_REVOLUTIONS, "window": "rectangular, whole revolutions"}
 
@@ -267,7 +263,9 @@ def broadband_outputs(run: RecordedRun) -> list[str]:
 
 def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
     """``(speed_rad_s, H1/H2 estimate)`` per constant-speed dwell long enough, from the test force
-    to :func:`broadband_outputs`."""
+    to :func:`broadband_outputs`. A dwell with gaps (a recording's dropped samples) is averaged
+    over the Welch segments between its gaps (:func:`estimate_frf_gapped`); a dwell whose gaps
+    leave too little for that is left out with the reason in the run's notes."""
     if not run.has_test_force:
         return []
     outputs = broadband_outputs(run)
@@ -277,11 +275,26 @@ def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
         t = d.time_s
         if t.size < MIN_BROADBAND_SAMPLES:
             continue
-        if not np.allclose(np.diff(t), T, rtol=1e-6, atol=1e-9):
-            raise ModelError(f"{run.path}: samples are missing between {t[0]:g} and "
-                             f"{t[-1]:g} s; a broadband estimate needs them all")
         Y = np.column_stack([d.channels[n] for n in outputs])
-        out.append((float(d.speed_rad_s[0]), estimate_frf(d.test_force, Y, 1 / T)))
+        runs = contiguous_runs(t, T)
+        if len(runs) == 1:
+            out.append((float(d.speed_rad_s[0]), estimate_frf(d.test_force, Y, 1 / T)))
+            continue
+        lengths = [b - a for a, b in runs]
+        nperseg = gapped_segment_length(lengths)
+        if nperseg is None:
+            run.notes.append(
+                f"broadband dwell at {d.speed_rad_s[0] / (2 * np.pi):.4g} Hz ({t[0]:.3f}-"
+                f"{t[-1]:.3f} s) left out: its {len(runs) - 1} gaps leave contiguous runs of at "
+                f"most {max(lengths)} samples, too short for {MIN_AVERAGES} Welch segments of "
+                f"{MIN_SEGMENT}")
+            continue
+        est = estimate_frf_gapped(d.test_force, Y, 1 / T, runs, nperseg)
+        run.notes.append(
+            f"broadband dwell at {d.speed_rad_s[0] / (2 * np.pi):.4g} Hz: {len(runs) - 1} gaps; "
+            f"averaged over the {est.averages} Welch segments of {nperseg} samples that fit "
+            "between them")
+        out.append((float(d.speed_rad_s[0]), est))
     return out
 
 

@@ -2,40 +2,52 @@
 scenario from a machine configuration, the signals from a bag through a mapping file
 (:mod:`.recording_map`), resampled onto one uniform grid (:mod:`rotor_avc.analysis.resampling`).
 
-* the scenario: ``--config`` (a scenario config: machine, controllers, ``simulation:`` with the
-  sample rate, unbalance, damping rule and test signal), its ``simulation.unbalance`` replaced by
-  the mapping's ``unbalance`` when given;
-* the grid: the configuration's sample period (the controllers' rate, which the sampled-loop
-  model and the FRF estimate use), over the time every channel covers, aligned to the stamps of
-  the fastest channel; every channel linearly interpolated onto it, grid points in a gap of more
-  than ``resample.max_missing_samples`` missing samples of any channel excluded;
-* the shaft: a pulse topic (``shaft_from_pulses``), an encoder angle or a JointState position
-  (the angle interpolated, the speed and its dwells from the angle's whole-revolution crossings);
-* ``notes``: what was found per channel (rate, jitter, dropped samples, longest gap), the shaft
-  (pulses, missing pulses, dwells), the resampling method and its loss, and the 1x points whose
+* the scenario: ``--config``, a machine configuration; a ``simulation:`` section is optional
+  (:mod:`.recording_scenario`): the speed profile, duration and initial state come from the
+  recording, the sample rate from the configuration's controllers or else the fastest channel,
+  the unbalance from the mapping (or ``simulation.unbalance``); what was assumed is
+  ``RecordedRun.assumptions`` (printed, and in ``metrics.json``);
+* the grid: that sample period over the time every channel covers, aligned to the stamps of
+  the fastest channel (its size checked against the memory limit before it is built); every
+  channel linearly interpolated onto it, grid points in a gap of more than
+  ``resample.max_missing_samples`` missing samples of any channel excluded;
+* per channel, samples that are not finite or overflow are excluded and counted (like dropped
+  samples), and a step of the sensor clock against the recorder's is refused, naming the channel,
+  the time and the step (``rotor_avc.analysis.resampling.clock_steps``);
+* the shaft: a pulse topic (``shaft_from_pulses``: revolutions counted from the intervals,
+  duplicate pulses dropped), an encoder angle or a JointState position (revolutions counted
+  across gaps, ``count_revolutions``; the speed and its dwells from its whole-revolution
+  crossings); the angle is continuous, so order tracking over samples kept on both sides of a
+  gap keeps every revolution;
+* ``notes``: what was found per channel (rate, jitter, dropped samples, longest gap, excluded
+  values), the shaft (pulses, missing and duplicate pulses, dwells), the resampling method and
+  its loss, and the 1x points whose
   noise (:mod:`rotor_avc.analysis.one_x_noise`, over the dwell's second half: a short dwell has
   few samples) is too large for a verdict. :func:`compare_mapped` adds per output the coherence of the broadband estimate
   and the fraction of H1 inside its +-2 sigma band around the sampled-loop model.
 """
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
 
 from ..analysis import resampling as R
 from ..analysis.frf_estimate import h1_random_error
+from ..analysis.order_tracking import (ShaftAngle, dwell_windows, revolution_windows,
+                                       track_windows)
 from ..analysis.one_x_noise import decidable, one_x_random_error
 from ..bag import BagError
 from ..bag.rosbag2 import open_bag
 from ..config import find_config, load_yaml
-from ..errors import ConfigError
-from ..scenario import scenario_from_config
+from ..errors import ConfigError, ModelError
+from ..machine import machine_from_config
+from ..resources import FLOAT_BYTES, check_memory
 from .checks import MIN_COHERENCE, TOL_OFF_RESONANCE_DB
 from .comparison import Comparison, compare_run
 from .recorded_run import RecordedRun
 from .recording_map import DEFAULT_ANGLE_FIELD, read_map
+from .recording_scenario import describe_assumptions, recording_scenario
 
 #: the test force's name among the resampled channels
 TEST_FORCE = "test force"
@@ -58,8 +70,23 @@ def _stamps_ns(series, stamp: str, where: str, source: str) -> np.ndarray:
                       fix="set `stamp: log` to use the bag's log times", source=source)
 
 
-def _read_field(bag, sig, where: str, source: str) -> tuple[np.ndarray, np.ndarray]:
-    """(stamps ns, SI values) of one mapped field."""
+def _check_clock(series, stamps_ns, where: str, source: str) -> None:
+    """Refuse a sensor clock that steps against the recorder's (module docstring)."""
+    steps = R.clock_steps(stamps_ns * 1e-9, series.time_ns * 1e-9)
+    if steps:
+        log_s, step_s = steps[0]
+        start_s = float(series.time_ns.min()) * 1e-9
+        raise ConfigError(f"{where}.stamp", f"the header stamps of {series.topic} step by "
+                          f"{step_s:+.6g} s against the bag's log time at {log_s - start_s:.6g} s "
+                          f"into the recording ({len(steps)} clock step(s): NTP, a clock reset); "
+                          "samples on both sides cannot share one time base",
+                          fix=f"set `stamp: log` for this channel, or cut the recording at "
+                              f"{log_s - start_s:.6g} s", source=source)
+
+
+def _read_field(bag, sig, where: str, source: str):
+    """(stamps ns, SI values, samples excluded as non-finite or overflowing) of one mapped
+    field."""
     if sig.topic not in bag.topics:
         raise ConfigError(f"{where}.topic", f"no topic {sig.topic} in {bag.path}",
                           fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
@@ -72,7 +99,15 @@ def _read_field(bag, sig, where: str, source: str) -> tuple[np.ndarray, np.ndarr
     if values.ndim != 1:
         raise ConfigError(f"{where}.field", f"{sig.field!r} of {sig.topic} is an array",
                           fix=f"pick one element, e.g. {sig.field}[0]", source=source)
-    return _stamps_ns(series, sig.stamp, where, source), sig.sign * sig.scale * values
+    stamps = _stamps_ns(series, sig.stamp, where, source)
+    if sig.stamp != "log":
+        _check_clock(series, stamps, where, source)
+    ok, excluded = R.usable_samples(values)
+    if ok.sum() < 3:
+        raise ConfigError(f"{where}.field", f"{sig.field!r} of {sig.topic} has "
+                          f"{int(ok.sum())} finite values of {ok.size}",
+                          fix="map a field that the sensor fills", source=source)
+    return stamps[ok], sig.sign * sig.scale * values[ok], excluded
 
 
 def _read_shaft(bag, shaft, source: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -82,38 +117,33 @@ def _read_shaft(bag, shaft, source: str) -> tuple[np.ndarray, np.ndarray | None]
                           fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
     series = bag.series(shaft.topic)
     stamps = _stamps_ns(series, shaft.stamp, "shaft", source)
+    if shaft.stamp != "log":
+        _check_clock(series, stamps, "shaft", source)
     if shaft.source == "pulse":
         return stamps, None
     name = shaft.field or DEFAULT_ANGLE_FIELD[shaft.source]
     try:
-        return stamps, np.asarray(series[name], dtype=float)
+        angle = np.asarray(series[name], dtype=float)
     except BagError as exc:
         raise ConfigError("shaft.field", f"{name!r} is not a field of {shaft.topic}",
                           fix=exc.fix, source=source) from None
+    ok, _ = R.usable_samples(angle)
+    return stamps[ok], angle[ok]
 
 
 def load_machine_and_map(config, map_path):
-    """``(config data, scenario, map, channel name -> SignalMap)``: the scenario with the map's
-    unbalance reference when it gives one."""
+    """``(config path, config data, machine, map, channel name -> SignalMap)``."""
     config_path = find_config(config)
     data = load_yaml(config_path)
-    scenario = scenario_from_config(data, str(config_path))
-    rmap, signals = read_map(map_path, model_signals(scenario.machine.plant))
-    if rmap.unbalance is not None:
-        data = copy.deepcopy(data)
-        data.setdefault("simulation", {})["unbalance"] = rmap.unbalance
-        scenario = scenario_from_config(data, f"{config_path} with the unbalance of {map_path}")
-    if rmap.test_force is not None and scenario.test_force is None:
-        raise ConfigError("test_force", "the configuration has no simulation.test_signal (its "
-                          "actuator and band)", fix=f"add simulation.test_signal to "
-                          f"{config_path} or drop test_force", source=str(map_path))
-    return data, scenario, rmap, signals
+    machine = machine_from_config(data, str(config_path))
+    rmap, signals = read_map(map_path, model_signals(machine.plant))
+    return config_path, data, machine, rmap, signals
 
 
 def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     """The recording at ``bag_path`` (.mcap or rosbag2 directory) as a RecordedRun of the
     machine ``config`` through the mapping ``map_path`` (see the module docstring)."""
-    data, scenario, rmap, signals = load_machine_and_map(config, map_path)
+    config_path, data, machine, rmap, signals = load_machine_and_map(config, map_path)
     source = str(map_path)
     mapped = {name: (sig, f"channels.{name}") for name, sig in signals.items()}
     if rmap.test_force is not None:
@@ -121,20 +151,29 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     with open_bag(bag_path, require_messages=True, integrity=True) as bag:
         raw = {name: _read_field(bag, sig, where, source) for name, (sig, where) in mapped.items()}
         shaft_ns, shaft_angle = _read_shaft(bag, rmap.shaft, source)
-    origin_ns = min(min(int(t.min()) for t, _ in raw.values()), int(shaft_ns.min()))
+    origin_ns = min(min(int(t.min()) for t, _, _ in raw.values()), int(shaft_ns.min()))
     notes, clean = [], {}
-    for name, (stamps, values) in raw.items():
+    for name, (stamps, values, excluded) in raw.items():
         t, y, fixed = R.clean_stamps((stamps - origin_ns) * 1e-9, values)
         quality = R.stamp_quality(f"{name} ({mapped[name][0].topic})", t, fixed)
         clean[name] = (t, y, quality)
-        notes.append(quality.describe())
+        notes.append(quality.describe() + (f", {excluded} values not finite or beyond "
+                                           f"{R.OVERFLOW:g} excluded" if excluded else ""))
+    shaft_s = (shaft_ns - origin_ns) * 1e-9
+    scenario, assumptions = recording_scenario(
+        data, str(config_path), rmap, machine, _recorded_rates(clean),
+        _span_s(clean), _top_speed_hz(rmap.shaft, shaft_s, shaft_angle))
+    if rmap.test_force is not None and scenario.test_force is None:
+        raise ConfigError("test_force", "the configuration has no simulation.test_signal (its "
+                          "actuator and band)", fix=f"add simulation.test_signal to "
+                          f"{config_path} or drop test_force", source=source)
     grid = _grid(clean, scenario.sample_period_s)
     valid = np.ones(grid.size, bool)
     channels = {}
     for name, (t, y, _) in clean.items():
         channels[name], ok = R.resample(t, y, grid, rmap.resample.max_missing_samples)
         valid &= ok
-    shaft, shaft_note = _shaft(rmap.shaft, (shaft_ns - origin_ns) * 1e-9, shaft_angle, grid)
+    shaft, shaft_note = _shaft(rmap.shaft, shaft_s, shaft_angle, grid)
     valid &= shaft.valid
     top_hz = float(shaft.speed_rad_s.max() / (2 * np.pi))
     if TEST_FORCE in clean:
@@ -142,11 +181,13 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     losses = [f"{name} {R.interpolation_loss_db(t, grid, top_hz):.2g} dB"
               for name, (t, _, _) in clean.items()]
     notes.append(shaft_note)
-    notes.append(f"resampling: linear interpolation onto the configuration's "
-                 f"{1 / scenario.sample_period_s:g} Hz grid aligned to the fastest channel's "
-                 f"stamps; {int((~valid).sum())} of {grid.size} grid points excluded (in gaps of "
-                 f"more than {rmap.resample.max_missing_samples} missing samples, outside a "
-                 f"channel's record); interpolation loss at {top_hz:.4g} Hz: " + ", ".join(losses))
+    notes.append(f"resampling: linear interpolation onto the "
+                 f"{1 / scenario.sample_period_s:g} Hz grid ({assumptions['sample_rate_hz']['from']}"
+                 f") aligned to the fastest channel's stamps; {int((~valid).sum())} of {grid.size} "
+                 f"grid points excluded (in gaps of more than {rmap.resample.max_missing_samples} "
+                 f"missing samples, outside a channel's record); interpolation loss at "
+                 f"{top_hz:.4g} Hz: " + ", ".join(losses))
+    notes.append("assumed: " + describe_assumptions(assumptions))
     keep = np.flatnonzero(valid)
     if keep.size < 3:
         raise BagError(bag_path, "fewer than 3 grid points are covered by every mapped channel "
@@ -155,19 +196,100 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     channels = {n: v[keep] for n, v in channels.items()}
     if test is None:
         notes += _noisy_points(grid[keep], shaft.angle_rad[keep], channels, shaft.dwells)
-    return RecordedRun(Path(bag_path), scenario, data, "", grid[keep],
-                       shaft.angle_rad[keep], shaft.speed_rad_s[keep], channels,
-                       None if test is None else test[keep],
-                       "" if test is None else f"recorded ({rmap.test_force.topic})", notes)
+    run = RecordedRun(Path(bag_path), scenario, data, "", grid[keep],
+                      shaft.angle_rad[keep], shaft.speed_rad_s[keep], channels,
+                      None if test is None else test[keep],
+                      "" if test is None else f"recorded ({rmap.test_force.topic})", notes,
+                      assumptions)
+    run.tracking = ShaftTracking(run, shaft, {n: (t, y) for n, (t, y, _) in clean.items()
+                                              if n != TEST_FORCE})
+    return run
+
+
+class ShaftTracking:
+    """The 1x order tracking of a mapped recording: windows of whole revolutions defined by the
+    shaft (its dwells' second halves, or consecutive windows of a run-up), each channel fitted
+    over its own samples at their own stamps (no resampling, no grid points lost to another
+    channel's gap; rotor_avc.analysis.order_tracking.track_windows). Windows left out for want
+    of samples are added to the run's notes."""
+
+    def __init__(self, run: RecordedRun, shaft: R.Shaft, raw: dict):
+        self.run, self.shaft, self.raw = run, shaft, raw
+
+    def __call__(self, names, u_ref, runup_revolutions: int):
+        channels = {n: self.raw[n] for n in names}
+        knots = self.shaft.knots
+        if self.shaft.dwells:
+            windows = dwell_windows(knots, [(a, b) for a, b, _ in self.shaft.dwells])
+            method, settings = "stepped-speed dwells", {
+                "settle_fraction": 0.5, "min_revolutions": 4,
+                "window": "whole revolutions from the shaft, each channel at its own stamps"}
+        else:
+            start = max([knots.knots_s[0]] + [t[0] for t, _ in channels.values()])
+            stop = min([knots.knots_s[-1]] + [t[-1] for t, _ in channels.values()])
+            windows, skipped = _outside_gaps(revolution_windows(knots, start, stop,
+                                                                runup_revolutions),
+                                             self.shaft.pulse_gaps)
+            self.run.notes += skipped
+            method, settings = "run-up windows (quasi-stationary)", {
+                "revolutions_per_window": runup_revolutions,
+                "window": "whole revolutions from the shaft, each channel at its own stamps"}
+        track, notes = track_windows(knots, windows, channels, u_ref)
+        self.run.notes += notes
+        settings["windows_left_out"] = len(notes)
+        return track, method, settings
+
+
+def _outside_gaps(windows, gaps) -> tuple[list, list[str]]:
+    """Run-up windows that overlap no tacho gap of more than two revolutions (where the speed
+    changes, the angle interpolated across the gap is not the shaft's), and a note per window
+    left out."""
+    kept, notes = [], []
+    for t0, t1, n in windows:
+        hit = [g for g in gaps if g[0] < t1 and g[1] > t0]
+        if hit:
+            notes.append(f"1x window {t0:.4g}-{t1:.4g} s left out: the tacho missed "
+                         f"{max(g[2] for g in hit) - 1} pulses there (the speed changes)")
+        else:
+            kept.append((t0, t1, n))
+    return kept, notes
+
+
+def _recorded_rates(clean: dict) -> dict[str, float]:
+    return {name: quality.rate_hz for name, (_, _, quality) in clean.items()}
+
+
+def _span_s(clean: dict) -> float:
+    return (min(t[-1] for t, _, _ in clean.values())
+            - max(t[0] for t, _, _ in clean.values()))
+
+
+def _top_speed_hz(shaft_map, stamps_s, angle) -> float:
+    """The highest rotational frequency of the recording (before the grid exists): from the
+    shortest pulse interval (duplicates dropped) or the counted encoder angle."""
+    if shaft_map.source == "pulse":
+        p, revs, _ = R.clean_pulses(np.unique(stamps_s))
+        return float(np.max(revs / np.diff(p)))
+    t, a, _ = R.clean_stamps(stamps_s, angle)
+    crossings = R.angle_crossings(t, R.count_revolutions(t, a))
+    if crossings.size < 2:
+        raise ModelError("shaft angle: the recording covers less than one revolution")
+    return float(1.0 / np.min(np.diff(crossings)))
 
 
 def _grid(clean: dict, period_s: float) -> np.ndarray:
-    """The uniform grid every channel covers, aligned to the fastest channel's stamps."""
+    """The uniform grid every channel covers, aligned to the fastest channel's stamps (its
+    memory, with the channels resampled onto it, checked against the limit first)."""
     start = max(t[0] for t, _, _ in clean.values())
     stop = min(t[-1] for t, _, _ in clean.values())
     if stop <= start:
         raise ConfigError("channels", "the mapped channels do not overlap in time",
                           fix="map topics recorded at the same time")
+    n = int(np.floor((stop - start) / period_s)) + 1
+    check_memory(n * FLOAT_BYTES * (len(clean) + 6), f"a {n}-point resampling grid "
+                 f"({stop - start:.6g} s at {1 / period_s:g} Hz, {len(clean)} channels)",
+                 fix="check the channels' stamps (a clock jump stretches the record), or "
+                     "compare a shorter recording")
     fastest = max(clean.values(), key=lambda c: c[2].rate_hz)[0]
     anchor = fastest[np.searchsorted(fastest, start)]
     return anchor + period_s * np.arange(int(np.floor((stop - anchor) / period_s)) + 1)
@@ -179,18 +301,19 @@ def _shaft(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
         t, _, fixed = R.clean_stamps(stamps_s, np.zeros(stamps_s.size))
         shaft = R.shaft_from_pulses(t, grid, angle_at_pulse_rad=np.radians(
             shaft_map.pulse_angle_deg), **opts)
-        what = (f"{shaft.pulses} pulses, {shaft.missing_pulses} missing (counted from the "
-                f"intervals)" + (f", {fixed} out of order or repeated" if fixed else ""))
+        what = shaft.report.describe() + (f", {fixed} out of order or repeated" if fixed else "")
     else:
         t, angle, fixed = R.clean_stamps(stamps_s, angle)
-        theta = np.unwrap(angle)
+        theta = R.count_revolutions(t, angle)
         shaft = R.shaft_from_pulses(R.angle_crossings(t, theta), grid, **opts)
         shaft.angle_rad = np.interp(grid, t, theta)
+        shaft.knots = ShaftAngle(t, theta)
         shaft.valid &= (grid >= t[0]) & (grid <= t[-1])
-        what = R.stamp_quality("angle", t, fixed).describe()
-    dwells = ", ".join(f"{hz:.4g} Hz ({a:.3g}-{b:.3g} s)" for a, b, hz in shaft.dwells)
+        what = (R.stamp_quality("angle", t, fixed).describe() + "; whole revolutions: "
+                + shaft.report.describe())
+    dwells = ", ".join(f"{hz:.6g} Hz ({a:.3g}-{b:.3g} s)" for a, b, hz in shaft.dwells)
     return shaft, (f"shaft ({shaft_map.source}, {shaft_map.topic}): {what}; constant-speed "
-                   f"dwells (speed spread <= {shaft_map.dwell_tol:g}): {dwells or 'none'}")
+                   f"dwells: {dwells or 'none'}")
 
 
 def _noisy_points(time_s, angle_rad, channels, dwells) -> list[str]:

@@ -17,6 +17,11 @@ From the bag (rotor_avc.bag.topics; the namespace is found from ``.../rotor/join
   topic (a plant that did not publish it) gets it regenerated from the configuration, which fixes
   it sample by sample (rotor_avc.sim.broadband).
 
+A graph run whose bag says it was not lockstep (its ``rotor_avc_lockstep`` record:
+a fault policy stood in for answers, an answer changed, a responder was absent) is not the
+sampled loop the comparison rates: :func:`open_run` refuses it with the samples concerned
+(rotor_avc.bag.lockstep.NotLockstepError, exit status 6), after the sequence check.
+
 Samples are matched by log time (the sample's sim time); a repeated stamp (a lockstep resend)
 counts once, and samples missing from any of the topics are dropped (and counted in ``notes``).
 Every problem is a :class:`~rotor_avc.bag.errors.BagError` or
@@ -26,10 +31,12 @@ Every problem is a :class:`~rotor_avc.bag.errors.BagError` or
 ``scenario``, ``config``, ``namespace``, ``notes``, ``channel_names``, ``has_test_force``,
 ``test_source``), its constant-speed dwells one at a time (:meth:`RecordedRun.dwells`: a
 :class:`Dwell` each, at most :data:`MAX_DWELL_SAMPLES` samples, the last of the dwell) and, for a
-run without dwells (a run-up), the whole run (``whole()``). :class:`RecordedRun` holds the run in
-memory (any source can build one: a foreign recording mapped and resampled);
+run without dwells (a run-up), its samples block by block (``blocks()``, which the run-up order
+tracking consumes as they come); ``assumptions`` (what a recording of a real machine left to
+assumption) and ``tracking`` (a source's own 1x tracking, or None). :class:`RecordedRun` holds
+the run in memory (any source can build one: a foreign recording mapped and resampled);
 :class:`rotor_avc.compare.bag_source.BagSource` reads a bag in one streaming pass, holding one
-dwell at a time.
+dwell or one run-up window at a time.
 """
 from __future__ import annotations
 
@@ -41,6 +48,7 @@ import numpy as np
 
 from ..analysis.order_tracking import dwells
 from ..bag import BagError, BagReader
+from ..bag.lockstep import require_lockstep
 from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
 from ..scenario import Scenario, scenario_from_config
@@ -89,6 +97,13 @@ class RecordedRun:
     test_force: np.ndarray | None = None
     test_source: str = ""
     notes: list[str] = field(default_factory=list)
+    #: what a recording of a real machine left to assumption, each value with its source
+    #: (rotor_avc.compare.recording_scenario); empty for the package's own bags
+    assumptions: dict = field(default_factory=dict)
+    #: the run's own 1x order tracking, ``(names, u_ref, runup_revolutions) -> (track, method,
+    #: settings)``, where its signals do not share one sample grid (a mapped recording); None:
+    #: the comparison tracks the channels on ``time_s``
+    tracking: object = None
 
     @property
     def sample_period_s(self) -> float:
@@ -116,8 +131,10 @@ class RecordedRun:
             if np.mean(dwell.speed_rad_s) > 0:
                 yield dwell
 
-    def whole(self) -> "RecordedRun":
-        return self
+    def blocks(self):
+        """The run as blocks ``(time_s, angle_rad, speed_rad_s, channels, test_force)`` in time
+        order (here: one block; a streamed source yields many)."""
+        yield self.time_s, self.angle_rad, self.speed_rad_s, self.channels, self.test_force
 
 
 def _unique(series):
@@ -148,6 +165,7 @@ def open_run(bag: BagReader, path: Path) -> OpenedRun:
                        f"its configuration gives ({scenario.damping.describe()!r})",
                        fix="re-record the run with this version of the package")
     sequence = require_complete(bag, scenario.n_steps)
+    require_lockstep(bag.metadata, path)
     joints = [t for t in bag.topics if t.endswith("/rotor/joint_state")]
     if not joints:
         raise BagError(path, "no rotor/joint_state topic: the comparison needs the recorded "

@@ -10,7 +10,8 @@
   measured (H1 for broadband, with H2 and coherence), sampled-loop and continuous model, each as
   magnitude (SI unit per unit unbalance or per N) and phase in degrees, and the error in dB of
   the measurement against the sampled-loop model; broadband rows add ``h1_sigma_rel``, H1's
-  normalised random error from coherence and averages
+  normalised random error from coherence and averages, and ``averages``, the Welch segments
+  behind each bin (on a gapped record, those that fit between its gaps)
   (:func:`rotor_avc.analysis.frf_estimate.h1_random_error`: the +-1 sigma band is
   ``measured_mag (1 +- h1_sigma_rel)``, drawn grey in the broadband plots where it is below 0.5);
 * ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
@@ -36,6 +37,7 @@ from ..analysis.frf_estimate import h1_random_error
 from .figures import broadband_figures, one_x_figures, poles_figure
 from ..interactive.page import page as interactive_page
 from ..interactive.jsonable import jsonable as _clean
+from ..output_files import make_folder, open_text, save_figure, write_text
 
 ACCEPTANCE = (f"A bag of the in-process or ROS lockstep loop agrees with the sampled-loop model "
               f"within {TOL_OFF_RESONANCE_DB:g} dB and {TOL_PHASE_OFF_RESONANCE_DEG:g} deg away "
@@ -67,6 +69,7 @@ def metrics(comp: Comparison) -> dict:
            "package_version": run.config.get("package_version"),
            "sample_rate_hz": 1.0 / run.sample_period_s, "damping": sc.damping.describe(),
            "initial_state": sc.initial_state, "unbalance": dict(sc.amplitudes),
+           "assumed": run.assumptions,
            "checks": [c.as_dict() for c in comp.checks],
            "reference_model_metrics": [c.as_dict() for c in comp.reference_metrics],
            "notes": comp.notes}
@@ -101,8 +104,8 @@ def write_csv(comp: Comparison, path: Path) -> Path:
     cols = ["kind", "speed_hz", "freq_hz", "channel", "unit", "measured_mag",
             "measured_phase_deg", "h2_mag", "h2_phase_deg", "coherence", "sampled_mag",
             "sampled_phase_deg", "continuous_mag", "continuous_phase_deg", "error_db",
-            "h1_sigma_rel"]
-    with open(path, "w", newline="") as fh:
+            "h1_sigma_rel", "averages"]
+    with open_text(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(cols)
         one = comp.one_x
@@ -115,7 +118,8 @@ def write_csv(comp: Comparison, path: Path) -> Path:
                 for k in range(f.size):
                     w.writerow(["1x", f"{f[k]:.9g}", f"{f[k]:.9g}", ch, one.units[ch],
                                 rows[0][0][k], rows[0][1][k], "", "", "", rows[1][0][k],
-                                rows[1][1][k], rows[2][0][k], rows[2][1][k], f"{err[k]:.6g}", ""])
+                                rows[1][1][k], rows[2][0][k], rows[2][1][k], f"{err[k]:.6g}", "",
+                                ""])
         for bb in comp.broadband:
             est, sel = bb.estimate, np.isin(bb.estimate.freq_hz, bb.models["sampled"].freq_hz)
             for i, name in enumerate(bb.outputs):
@@ -130,7 +134,8 @@ def write_csv(comp: Comparison, path: Path) -> Path:
                                 name, bb.models["sampled"].units[name],
                                 cols_[0][0][k], cols_[0][1][k], cols_[1][0][k], cols_[1][1][k],
                                 f"{coh[k]:.6g}", cols_[2][0][k], cols_[2][1][k], cols_[3][0][k],
-                                cols_[3][1][k], f"{err[k]:.6g}", f"{sigma[k]:.6g}"])
+                                cols_[3][1][k], f"{err[k]:.6g}", f"{sigma[k]:.6g}",
+                                est.averages])
     return path
 
 
@@ -181,7 +186,7 @@ def plot_one_x(comp: Comparison, out_dir: Path) -> list[Path]:
                      f"\n{one.reference}", fontsize=8)
         fig.tight_layout()
         paths.append(out_dir / f"one_x_{kind}.png")
-        fig.savefig(paths[-1], dpi=100)
+        save_figure(fig, paths[-1], dpi=100)
         plt.close(fig)
     return paths
 
@@ -226,7 +231,7 @@ def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
                      f"{speed_hz:.3f} Hz (w_F frozen at {bb.w_F:.4g} rad/s)", fontsize=9)
         fig.tight_layout()
         paths.append(out_dir / f"broadband_{speed_hz:.1f}Hz.png")
-        fig.savefig(paths[-1], dpi=100)
+        save_figure(fig, paths[-1], dpi=100)
         plt.close(fig)
     return paths
 
@@ -253,7 +258,7 @@ def plot_poles(comp: Comparison, out_dir: Path) -> list[Path]:
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     path = out_dir / "poles.png"
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return [path]
 
@@ -316,17 +321,17 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
     if comp.broadband:
         blocks += ["<h2>Broadband FRFs</h2>", *broadband_figures(comp)]
     blocks.append(f"<p>Files next to this page: frf.csv, metrics.json and the PNGs ({files}).</p>")
-    path.write_text(interactive_page(f"Comparison of a recorded run with the models: "
-                                     f"{data['bag']}", blocks))
+    write_text(path, interactive_page(f"Comparison of a recorded run with the models: "
+                                      f"{data['bag']}", blocks))
     return path
 
 
 def write_report(comp: Comparison, out_dir) -> dict[str, Path]:
     """Write the report folder; returns the paths by role."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir)
     data = metrics(comp)
-    (out_dir / "metrics.json").write_text(json.dumps(data, indent=1))
+    write_text(out_dir / "metrics.json", json.dumps(data, indent=1))
     csv_path = write_csv(comp, out_dir / "frf.csv")
     pngs = ((plot_one_x(comp, out_dir) if comp.one_x else []) + plot_broadband(comp, out_dir)
             + plot_poles(comp, out_dir))

@@ -83,7 +83,7 @@ def one_x_track(run: RecordedRun, channels: list[str], n_model: int = 2000) -> O
     loop = ClosedLoop(_with_foot_accelerations(machine.plant), machine.controllers)
     dense = np.linspace(track.speed_hz.min(), track.speed_hz.max(), n_model)
     model = _unbalance_models(run, {"continuous": loop}, 2 * np.pi * dense, 1.0, channels)
-    half = track.samples * run.sample_period_s / 2
+    half = np.pi * track.revolutions / track.speed_rad_s        # half a window's duration
     return OneXTrack(track.speed_hz, {c: track.phasors[c] for c in channels}, dense,
                      model["continuous"], {c: channel_unit(run, c) for c in channels}, method,
                      list(zip(track.time_s - half, track.time_s + half)))

@@ -21,7 +21,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
-from . import signals
+from . import signals, transport
 from .graph_nodes import RECORDER, graph_nodes
 from .runtime import close_node, make_executor
 
@@ -78,6 +78,7 @@ def main(args=None) -> int:
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    transport.use_loopback_profile()          # every UDP socket on 127.0.0.1
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
     nodes, status = [], 0
     try:
@@ -87,21 +88,23 @@ def main(args=None) -> int:
         for node in nodes:
             executor.add_node(node)
         try:
-            while rclpy.ok() and not signals.stop_requested() and not plant.exit_requested:
+            while (rclpy.ok() and not signals.stop_requested() and not plant.exit_requested
+                   and not recorder.exit_requested):       # e.g. the bag cannot be written
                 executor.spin_once(timeout_sec=0.1)
             recorder.drain(executor)
         finally:
             executor.shutdown()
-        status = plant.exit_status
+        status = plant.exit_status or getattr(recorder, "exit_status", 0)
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        status = 2
+        status = getattr(exc, "exit_status", 2)
     except (signals.Stop, KeyboardInterrupt):
         pass
     finally:
         signals.shutting_down()
         for node in reversed(nodes):              # the plant first, the recorder last
-            close_node(node)
+            closed = close_node(node)
+            status = status or closed
         if rclpy.ok():
             rclpy.shutdown()
     return status

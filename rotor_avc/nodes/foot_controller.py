@@ -14,6 +14,18 @@ measurement from a ``sensor_msgs/Imu`` as accelerometer drivers publish it (topi
 linear_acceleration.<imu_axis>`` (``imu_scale`` 9.80665 for a driver that publishes in g); the
 controller must have acceleration feedback.
 
+The measurement subscription's QoS (``measurement_qos``, rotor_avc.nodes.messages.MEASUREMENT_QOS):
+``sensor_data`` -- best effort, volatile, as rclpy's ``qos_profile_sensor_data``: it matches every
+publisher (a driver's best-effort one, a default reliable one, a transient-local one), delivered
+best effort; ``reliable`` -- reliable, volatile: reliable publishers of either durability;
+``lockstep`` -- the lockstep QoS (reliable, transient-local), which only the plant's publishers
+match. ``auto`` (default) is ``lockstep`` for the plant's stamped signal on its own topic (input
+``stamped``, no ``measurement_topic``): the package's graph keeps reliable delivery and the
+samples published before the subscription matched; and ``sensor_data`` for every external input
+(``input: imu``, or a ``measurement_topic``). A publisher whose QoS the subscription cannot match
+(its messages would never arrive) is an ERROR on ``/diagnostics`` and in the log, naming the
+topic, the policy and the fix, for as long as such a publisher is in the graph.
+
 Every measurement is screened before it reaches the filter (each rejected one is answered with
 the safe output -- ``safe_output``: hold the last force, or zero -- counted, and said on
 ``/diagnostics`` and in the log; the next good sample steps the filter as if it had not come):
@@ -44,6 +56,7 @@ import time
 from rclpy.node import Node
 
 from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.qos import QoSCompatibility, qos_check_compatible, qos_policy_name_from_kind
 
 from ..control.block import SAFE_OUTPUTS, build_digital_controllers
 from ..control.stamps import StampScreen
@@ -54,6 +67,9 @@ from . import taps
 from .runtime import (COMMON_PARAMS, Param, ParameterError, check_node_design,
                       declare_parameters, node_scenario, run_node)
 from .timing import LoopTiming
+
+#: an incompatible-QoS error stays until the graph has shown no such publisher for this long
+QOS_RECHECK_S = 5.0
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario or machine config (path or shipped name) holding this foot's "
@@ -72,6 +88,11 @@ PARAMS = COMMON_PARAMS + (
           minimum=-1, maximum=1),
     Param("imu_scale", 1.0, "factor from the Imu's unit to m/s^2 (9.80665 for g)",
           minimum=1e-12, maximum=1e12),
+    Param("measurement_qos", "auto", "QoS of the measurement subscription: sensor_data (best "
+          "effort, volatile: matches every publisher), reliable (reliable, volatile), lockstep "
+          "(reliable, transient-local: the plant's); auto: lockstep for the plant's stamped "
+          "signal on its own topic, sensor_data otherwise",
+          choices=("auto",) + tuple(m.MEASUREMENT_QOS)),
     Param("frame_id", "", "expected header.frame_id of a measurement (empty: foot_<id>, as the "
           "plant stamps it; '*': any)"),
     Param("max_stamp_jump_s", 1.0, "a stamp more than this after the last sample is refused "
@@ -113,16 +134,18 @@ class FootController(Node):
         self.force = m.Force(foot, self.axis)
         self.pub = taps.publisher(self, m.STAMPED_TYPES["actuator_force"],
                                          m.foot_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
-        self.create_subscription(
-            self.msg_type, self.topic, self._on_measurement, m.LOCKSTEP_QOS, raw=True,
-            event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_lost))
+        self.sub = self.create_subscription(
+            self.msg_type, self.topic, self._on_measurement, m.MEASUREMENT_QOS[self.qos_name],
+            raw=True, event_callbacks=SubscriptionEventCallbacks(
+                message_lost=self._on_lost, incompatible_qos=self._on_incompatible_qos))
+        self.qos_error = ""
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.create_timer(1.0, self._publish_diagnostics)
         self.timing = LoopTiming(None)
         self.stamps = StampScreen(sc.sample_period_s, self.p["max_stamp_jump_s"],
                                   self.p["resync_samples"])
         self.last_force = 0.0
-        self.faults = {"malformed": 0, "wrong_frame": 0, "dds_lost": 0}
+        self.faults = {"malformed": 0, "wrong_frame": 0, "dds_lost": 0, "incompatible_qos": 0}
         self.last_fault = ""
         self._seen_implausible = 0
         self._dropped_then = (0, time.monotonic())
@@ -148,6 +171,10 @@ class FootController(Node):
             self.factor = 1.0
             default_topic = m.foot_topic(foot, self.kind, ns)
         self.topic = p["measurement_topic"] or default_topic
+        external = p["input"] != "stamped" or bool(p["measurement_topic"])
+        self.qos_name = p["measurement_qos"]
+        if self.qos_name == "auto":
+            self.qos_name = "sensor_data" if external else "lockstep"
         frame = p["frame_id"] or f"foot_{foot}"
         self.frame = None if frame == "*" else m.frame_id_prefix(frame)
         self.frame_name = frame
@@ -197,6 +224,27 @@ class FootController(Node):
         self._report(f"the middleware lost {info.total_count_change} measurement(s) "
                      f"({info.total_count} in all)")
 
+    def _on_incompatible_qos(self, info) -> None:
+        """A publisher of the measurement topic whose QoS this subscription cannot match."""
+        self.faults["incompatible_qos"] = info.total_count
+        fix = ("-p measurement_qos:=sensor_data (best effort, volatile: matches every publisher)"
+               if self.qos_name != "sensor_data" else
+               "a publisher QoS a best-effort, volatile subscription matches")
+        self.qos_error = (f"a publisher of {self.sub.topic_name} offers a QoS this subscription "
+                          f"({self.qos_name}) cannot match (policy "
+                          f"{qos_policy_name_from_kind(info.last_policy_kind)}; "
+                          f"{info.total_count} such publisher(s) so far): its measurements never "
+                          f"arrive -- fix: {fix}")
+        self.t_qos_error = time.monotonic()
+        self.get_logger().error(self.qos_error)
+        self._publish_diagnostics()
+
+    def _incompatible_publishers(self) -> int:
+        """Publishers of the measurement topic in the graph this subscription cannot match."""
+        qos = m.MEASUREMENT_QOS[self.qos_name]
+        return sum(qos_check_compatible(info.qos_profile, qos)[0] == QoSCompatibility.ERROR
+                   for info in self.get_publishers_info_by_topic(self.sub.topic_name))
+
     @property
     def counts(self) -> dict:
         """Every fault and overload counter (node, stamp screen, controller block)."""
@@ -227,7 +275,14 @@ class FootController(Node):
                                f"report ({self.dropped_per_s:.0f}/s): measurements come faster "
                                "than this controller takes them")
             self.t_fault, recent = now, True
+        if (self.qos_error and now - self.t_qos_error > QOS_RECHECK_S
+                and not self._incompatible_publishers()):
+            self.get_logger().info(f"no publisher of {self.sub.topic_name} with an incompatible "
+                                   "QoS left")
+            self.qos_error = ""
         level, text = ("warn", self.last_fault) if recent else ("ok", self.ctrl.describe())
+        if self.qos_error:
+            level, text = "error", self.qos_error
         self.pub_diag.publish(m.diagnostics(max(self.stamps.last_ns, 0),
                                             [(f"{self.get_name()}: {self.foot}", level, text, stats),
                                              m.published_status(self)]))

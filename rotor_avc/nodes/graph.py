@@ -42,6 +42,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from ..bag.reader import BagReader
 from ..bag.sequence import check_sequence
 from ..errors import RotorAvcError
+from ..output_files import make_folder, output_errors
 from ..scenario import load_scenario
 from . import signals
 from .graph_nodes import graph_nodes
@@ -69,7 +70,9 @@ class GraphRun:
 
 def _start(command: list[str], log_dir: Path, name: str) -> tuple[subprocess.Popen, Path]:
     log = log_dir / f"{name}.log"
-    with open(log, "w") as fh:
+    with output_errors(log):
+        fh = open(log, "w")
+    with fh:
         proc = signals.spawn([sys.executable, *command], stdout=fh, stderr=subprocess.STDOUT,
                              env=dict(os.environ, PYTHONUNBUFFERED="1"))
     return proc, log
@@ -99,8 +102,8 @@ def run_graph(scenario_name: str, bag: Path, log_dir: Path,
     (``layout``: processes or composed; ``plant_params``: more plant parameters)."""
     scenario = load_scenario(scenario_name)
     bag, log_dir = Path(bag), Path(log_dir)
-    log_dir.mkdir(parents=True, exist_ok=True)
-    bag.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(log_dir)
+    make_folder(bag.parent)
     if bag.exists():
         bag.unlink()
     cmds = node_commands(scenario, bag, layout, plant_params)

@@ -9,16 +9,28 @@ keeps that bookkeeping and the fault policy:
 * no answer within ``resend_after_s`` (wall clock) -> the plant publishes sample ``k`` again
   (a message lost while the graph was still connecting); responders answer a repeated stamp from
   their cache without stepping twice;
-* no answer within ``timeout_s`` -> the responder is marked absent: its force follows the policy
-  (``hold`` the last force it sent, or ``zero``), the plant no longer waits for it, and the fault
-  is reported; the first answer it sends again (for any stamp) marks it present, and from the
-  next sample on the plant waits for it again.
+* policy ``wait`` (the default): the plant waits for every answer however long it takes
+  (:meth:`AnswerBook.waiting` says for whom and how long; the plant reports it and ends the run
+  only when a responder has left the graph);
+* policies ``hold`` and ``zero`` (fault studies): no answer within ``timeout_s`` -> the
+  responder is marked absent: its force follows the policy (``hold`` the last force it sent, or
+  ``zero``), the plant no longer waits for it, and the fault is reported; the first answer it
+  sends again (for any stamp) marks it present, and from the next sample on the plant waits for
+  it again.
+
+Either way the book counts what makes a run depart from lockstep
+(rotor_avc.bag.lockstep): the samples at which the policy stood in for an answer
+(:meth:`AnswerBook.settle`, ``substituted``) and the samples a responder answered again with a
+different value (``changed``: the current sample, or the previous one after it was stepped).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-POLICIES = ("hold", "zero")
+from ..bag.lockstep import SampleRanges
+
+#: ``wait``: lockstep whatever it takes; ``hold``, ``zero``: step on without an answer (faults)
+POLICIES = ("wait", "hold", "zero")
 
 
 @dataclass
@@ -31,6 +43,8 @@ class Responder:
     answer: object = None               # value answered for the current stamp
     faults: int = 0                     # times it was declared absent
     fault_reason: str = ""
+    substituted: int = 0                # samples stepped without its answer
+    changed: int = 0                    # answers that differed from its first to that sample
 
 
 @dataclass
@@ -38,7 +52,7 @@ class AnswerBook:
     """Which responders answered the current sample; what to use for those that did not."""
 
     names: tuple[str, ...]
-    policy: str = "hold"
+    policy: str = "wait"
     timeout_s: float = 1.0
     resend_after_s: float = 0.25
     responders: dict[str, Responder] = field(default_factory=dict)
@@ -46,15 +60,23 @@ class AnswerBook:
     started_s: float = 0.0
     last_send_s: float = 0.0
     resends: int = 0
+    sample: int = -1                    # index of the current sample
+    substituted: SampleRanges = field(default_factory=SampleRanges)
+    changed: SampleRanges = field(default_factory=SampleRanges)
+    previous: dict = field(default_factory=dict)     # answers the previous sample stepped with
+    previous_stamp_ns: int = -1
 
     def __post_init__(self):
         if self.policy not in POLICIES:
             raise ValueError(f"unknown fault policy {self.policy!r}; use one of {POLICIES}")
         self.responders = {n: Responder(n) for n in self.names}
 
-    def begin(self, stamp_ns: int, now_s: float) -> None:
-        """A new sample was published."""
+    def begin(self, stamp_ns: int, now_s: float, sample: int | None = None) -> None:
+        """A new sample (index ``sample``, default: the next) was published."""
+        self.previous = {r.name: r.answer for r in self.responders.values()}
+        self.previous_stamp_ns = self.stamp_ns
         self.stamp_ns = stamp_ns
+        self.sample = self.sample + 1 if sample is None else sample
         self.started_s = self.last_send_s = now_s
         for r in self.responders.values():
             r.answer = None
@@ -69,8 +91,17 @@ class AnswerBook:
             r.fault_reason = f"returned after fault (answer stamped {stamp_ns} ns)"
             if stamp_ns != self.stamp_ns:
                 return False
+        if stamp_ns == self.previous_stamp_ns and self.previous.get(name) is not None:
+            if value != self.previous[name]:          # a sample already stepped, answered anew
+                r.changed += 1
+                self.changed.add(self.sample - 1)
+            return False
         if stamp_ns != self.stamp_ns:
             return False
+        if r.answer is not None and value != r.answer:
+            r.changed += 1
+            self.changed.add(self.sample)
+            return False                                  # the first answer stands
         r.answer = value
         r.last_value = value
         return self.ready()
@@ -79,10 +110,12 @@ class AnswerBook:
         return all(r.answer is not None for r in self.responders.values() if r.present)
 
     def poll(self, now_s: float) -> tuple[bool, list[str]]:
-        """``(resend, newly_absent)`` at wall time ``now_s`` while waiting for the sample."""
+        """``(resend, newly_absent)`` at wall time ``now_s`` while waiting for the sample
+        (policy ``wait``: nobody becomes absent)."""
         newly_absent = []
         for r in self.responders.values():
-            if r.present and r.answer is None and now_s - self.started_s >= self.timeout_s:
+            if (self.policy != "wait" and r.present and r.answer is None
+                    and now_s - self.started_s >= self.timeout_s):
                 r.present = False
                 r.faults += 1
                 r.fault_reason = (f"no answer within {self.timeout_s:g} s (sample stamped "
@@ -94,6 +127,22 @@ class AnswerBook:
             self.last_send_s = now_s
             self.resends += 1
         return resend, newly_absent
+
+    def waiting(self, now_s: float) -> tuple[list[str], float]:
+        """The present responders that have not answered the current sample, and the wall time
+        waited for it so far."""
+        return ([r.name for r in self.responders.values() if r.present and r.answer is None],
+                now_s - self.started_s)
+
+    def settle(self) -> list[str]:
+        """The sample is stepped now: the responders whose answer the policy stands in for
+        (counted, with the sample, in ``substituted``)."""
+        missing = [r.name for r in self.responders.values() if r.answer is None]
+        for name in missing:
+            self.responders[name].substituted += 1
+        if missing:
+            self.substituted.add(self.sample)
+        return missing
 
     def value(self, name: str, zero):
         """The answer of ``name`` for this sample, or the policy's substitute."""

@@ -44,13 +44,25 @@ from ..bag.topics import check_array_size
 #: a message that a recording reader has not taken yet
 LOCKSTEP_DEPTH = 4096
 RECORDER_MARGIN = 96
-#: lockstep traffic: reliable, KEEP_LAST LOCKSTEP_DEPTH, offered transient-local: a reader that
-#: asks for it (the recorder) gets what was published before it matched -- discovery is
-#: asynchronous, so a subscription can exist before the publisher delivers to it -- while the
-#: controllers' volatile readers get only new samples
+#: lockstep traffic: reliable, KEEP_LAST LOCKSTEP_DEPTH, transient-local: a reader gets what was
+#: published before it matched (discovery is asynchronous, so a subscription can exist before
+#: the publisher delivers to it). The package's own lockstep readers (plant, controllers,
+#: balancer, harmonic controller) ask for it; such a reader matches only reliable,
+#: transient-local publishers
 LOCKSTEP_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                           history=HistoryPolicy.KEEP_LAST,
                           durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: a sensor driver's input: the reliability and durability of rclpy's ``qos_profile_sensor_data``
+#: (best effort, volatile), which match every publisher -- best effort or reliable, volatile or
+#: transient-local -- with the lockstep depth (the newest LOCKSTEP_DEPTH messages kept)
+SENSOR_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT,
+                        history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+#: reliable delivery without asking for history: matches reliable publishers of either
+#: durability (not best-effort ones)
+RELIABLE_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
+                          history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
+#: the QoS a measurement subscription may take (rotor_avc.nodes.foot_controller)
+MEASUREMENT_QOS = {"sensor_data": SENSOR_QOS, "reliable": RELIABLE_QOS, "lockstep": LOCKSTEP_QOS}
 #: /diagnostics of the package's nodes: reliable, the last 10 kept for a late-joining recorder
 DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                              history=HistoryPolicy.KEEP_LAST,

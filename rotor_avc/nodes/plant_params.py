@@ -11,6 +11,13 @@ from .runtime import COMMON_PARAMS, Param
 RATE_CHECK_S = 0.25
 RATE_CHECK_OVERRUNS = 0.05
 EXIT_RECORDER_LOST, EXIT_RATE_NOT_HELD = 1, 3
+#: a complete run that was not lockstep (a fault policy acted, an answer changed, a responder
+#: was absent: rotor_avc.bag.lockstep); a responder left the graph or never connected (the run
+#: ends); 6, another plant on the namespace: rotor_avc.nodes.namespace_guard
+EXIT_NOT_LOCKSTEP, EXIT_NODE_LEFT = 4, 5
+#: lockstep, fault_policy wait: while a sample waits longer than controller_timeout_s, the log
+#: and /diagnostics say for whom, at which sample and for how long, once per this many seconds
+WAIT_REPORT_S = 5.0
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config (path or shipped name): machine, controllers, "
@@ -19,12 +26,15 @@ PARAMS = COMMON_PARAMS + (
           "the wall clock with the latest forces", choices=("lockstep", "realtime")),
     Param("namespace", m.NAMESPACE, "topic namespace of the machine (/<namespace>/foot/...)"),
     Param("duration_s", 0.0, "simulated time in s; 0 = the scenario's duration", minimum=0.0),
-    Param("controller_timeout_s", 1.0, "wall time without an answer before a controller is "
-          "declared absent (then the fault policy applies)", minimum=1e-3, maximum=3600.0),
+    Param("controller_timeout_s", 1.0, "wall time without an answer before the plant says it "
+          "waits (fault_policy wait) or declares the controller absent (hold, zero)",
+          minimum=1e-3, maximum=3600.0),
     Param("resend_after_s", 0.25, "lockstep: wall time after which an unanswered sample is "
           "published again", minimum=1e-3, maximum=3600.0),
-    Param("fault_policy", "hold", "force of an absent controller: hold its last force or zero",
-          choices=POLICIES),
+    Param("fault_policy", "wait", "wait: lockstep, wait for every answer however long it takes "
+          "(a responder that left the graph ends the run, exit status 5); hold or zero: fault "
+          "studies only, step on without an absent controller with its last force or zero (the "
+          "run is then not lockstep: said in the bag, exit status 4)", choices=POLICIES),
     Param("discovery_timeout_s", 30.0, "wall time to wait for every controller (and the awaited "
           "recorder) to connect",
           minimum=0.0, maximum=3600.0),

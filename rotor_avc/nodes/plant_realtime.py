@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 from ..sim.loop import forces_from_answers
-from .plant_params import EXIT_RATE_NOT_HELD, RATE_CHECK_OVERRUNS, RATE_CHECK_S
+from .plant_params import EXIT_NODE_LEFT, EXIT_RATE_NOT_HELD, RATE_CHECK_OVERRUNS, RATE_CHECK_S
 
 
 class RealtimeMixin:
@@ -22,11 +22,23 @@ class RealtimeMixin:
             now = time.perf_counter()
 
     def _realtime_sample(self, now: float) -> None:
-        """Sample k in real time: the latest forces held, measurements published, one step."""
+        """Sample k in real time: the latest forces held, measurements published, one step.
+        A controller silent for controller_timeout_s gets the fault policy (hold, zero: the
+        samples are counted in the lockstep account) or, with ``wait``, ends the run."""
         wall = time.monotonic()
         for foot, t_last in self.last_force_time.items():
             if self.book.expire(foot, wall - (self.t_start if t_last is None else t_last)):
+                if self.p["fault_policy"] == "wait":
+                    self.gone[foot] = f"silent at sample {self.k}: {self.book.reason(foot)}"
+                    self._fault(f"{self._who(foot)}: {self.book.reason(foot)}; ending the run "
+                                f"(exit status {EXIT_NODE_LEFT}; fault_policy hold or zero runs "
+                                "on without it)")
+                    self.exit_status = EXIT_NODE_LEFT
+                    self._finish(complete=False)
+                    return
                 self._fault(f"{foot}: {self.book.reason(foot)}")
+        if self.book.absent():
+            self.book.substituted.add(self.k)
         u = forces_from_answers(self.stepper, {f: self.book.held(f, 0.0) for f in self.driven})
         self.schedule.record(self.k, now)
         self.timing.start()

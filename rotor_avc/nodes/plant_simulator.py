@@ -11,7 +11,18 @@ reproduces ``rotor-avc simulate`` exactly.
   ``plant/observables``, ``/clock`` = ``t_k``) and steps when every controller of the scenario
   (and the balancer, with ``balancer: true``, and the harmonic controller, with
   ``harmonic: true``: its forces add to the feedback forces) has answered ``t_k``
-  (:class:`rotor_avc.nodes.lockstep.AnswerBook`: resend, timeout, fault policy).
+  (:class:`rotor_avc.nodes.lockstep.AnswerBook`: resend, timeout, fault policy). With
+  ``fault_policy: wait`` (the default) it waits however long an answer takes, saying for whom,
+  at which sample and how long in its log and on ``/diagnostics`` (rotor_avc.nodes.plant_watch);
+  a responder that has left the graph ends the run (exit status 5), one that never connected
+  within ``discovery_timeout_s`` keeps it from starting (exit status 5). ``hold`` and ``zero``
+  step on without an absent responder (fault studies): such a run, or one in which an answer
+  changed after it was given, is not lockstep -- said in the log, on ``/diagnostics`` (status
+  ``<plant>: lockstep``, which the recorder writes into the bag: rotor_avc.bag.lockstep) and by
+  exit status 4.
+* **one plant per namespace**: a plant that finds another node publishing its sampled topics
+  while it starts does not start (one error line, exit status 6:
+  rotor_avc.nodes.namespace_guard).
 * **realtime**: steps on a wall-clock timer at the sample period with the latest forces received;
   a controller silent for longer than ``controller_timeout_s`` gets the fault policy.
 
@@ -60,13 +71,15 @@ from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_
 from . import messages as m
 from . import taps
 from .lockstep import AnswerBook
-from .plant_params import EXIT_RECORDER_LOST, PARAMS
+from .namespace_guard import DISCOVERY_SETTLE_S
+from .plant_params import EXIT_NODE_LEFT, EXIT_RECORDER_LOST, PARAMS
 from .plant_realtime import RealtimeMixin
 from .plant_recorder_window import RecorderWindowMixin
+from .plant_watch import PlantWatchMixin
 from .runtime import check_node_design, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming, Schedule
 
-class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
+class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
     """The plant node (see the module docstring)."""
 
     def __init__(self, name: str = "plant_simulator", **kwargs):
@@ -159,6 +172,9 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         self.exit_requested = False
         self.t_created = time.monotonic()
         self.fault_log: list[str] = []
+        self.waiting_text = ""
+        self.connected_since = None           # wall time since which every responder is seen
+        self._init_watch()
         self.create_timer(0.01, self._tick_waiting)
         self.create_timer(1.0, self._publish_diagnostics)
         if self.p["mode"] == "realtime":
@@ -224,6 +240,7 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         self.correction = list(self.stepper.correction.values())
         self.started = True
         self.t_start = time.monotonic()
+        self._note_answer_nodes()
         if self.p["mode"] == "realtime":
             self.schedule.begin(time.perf_counter())
             return                            # the real-time tick takes sample 0 when due
@@ -246,7 +263,7 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         self.pub_clock.publish(clock)
         self.pub_obs.publish(self.observables.fill(k * self.T, y))
         if begin:
-            self.book.begin(t_ns, time.monotonic())
+            self.book.begin(t_ns, time.monotonic(), k)
         if timed:
             self.timing.stop()
 
@@ -293,7 +310,10 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         return u
 
     def _advance(self) -> None:
-        """All answers of sample k are in: record, hold u_k, step to k+1, publish it."""
+        """All answers of sample k are in (or, policy hold/zero, stood in for): record, hold
+        u_k, step to k+1, publish it."""
+        self.book.settle()
+        self._waited()
         u = self._forces()
         if self.C is not None:
             values = self.book.value("balancer", None)
@@ -320,12 +340,31 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
             return
         now = time.monotonic()
         if not self.started:
+            if self._namespace_taken():
+                return
             if self._connected():
-                self._start()
-            elif now - self.t_created > self.p["discovery_timeout_s"]:
+                # discovery is asynchronous: the graph must hold still a moment before
+                # sample 0, so that another plant on the namespace is seen before it
+                self.connected_since = self.connected_since or now
+                if now - self.connected_since >= DISCOVERY_SETTLE_S:
+                    self._start()
+                return
+            self.connected_since = None
+            if now - self.t_created > self.p["discovery_timeout_s"]:
                 missing = [f for f in self.driven if self.count_publishers(
                     m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
                 unrecorded = self._unrecorded()
+                if missing and self.p["fault_policy"] == "wait" and self.p["mode"] == "lockstep":
+                    for f in missing:
+                        self.gone[f] = f"never connected (no publisher of {self._answer_topic(f)})"
+                    self._fault(f"controllers did not connect within "
+                                f"{self.p['discovery_timeout_s']:g} s: {missing}; not starting the "
+                                f"run (exit status {EXIT_NODE_LEFT}) -- fix: start them with the "
+                                "same namespace and domain (fault_policy hold or zero runs "
+                                "without them, as a fault study)")
+                    self.exit_status = EXIT_NODE_LEFT
+                    self._finish(complete=False)
+                    return
                 if missing or not unrecorded:
                     self._fault(f"controllers did not connect within "
                                 f"{self.p['discovery_timeout_s']:g} s: {missing}; starting with "
@@ -348,6 +387,10 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         resend, absent = self.book.poll(now)
         for name in absent:
             self._fault(f"{name}: {self.book.reason(name)}")
+        if self.p["fault_policy"] == "wait":
+            self._watch_waiting(now)
+            if self.finished:
+                return
         if resend:
             self._publish_sample(begin=False)
         # with responders absent the plant no longer waits for them: advance a batch per tick
@@ -372,9 +415,13 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
             return
         self.finished = True
         self.wall_s = time.monotonic() - self.t_start if self.started else 0.0
+        if complete:
+            self._judge_lockstep()
         sent = self._sent()
+        state = ("ENDED EARLY" if not complete else
+                 "complete, NOT LOCKSTEP" if self.exit_status else "complete")
         self.get_logger().info(
-            f"run {'complete' if complete else 'ENDED EARLY'}: {self.k} of {self.n_steps} samples "
+            f"run {state}: {self.k} of {self.n_steps} samples "
             f"in {self.wall_s:.2f} s ({self.k / max(self.wall_s, 1e-9):.0f} samples/s); published "
             + ", ".join(f"{t} {n}" for t, n in sorted(sent.items())
                         if t not in self.received)
@@ -399,7 +446,8 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         """The run so far as a :class:`rotor_avc.sim.timeseries.TimeSeries`."""
         sc = self.scenario
         meta = {"scenario": sc.machine.config.source, "config": sc.machine.config.data,
-                "mode": self.p["mode"], "faults": self.fault_log}
+                "mode": self.p["mode"], "faults": self.fault_log,
+                "lockstep": self.lockstep_record().encode()}
         C = self.C[:self.k] if self.C is not None else None
         return timeseries_from_run(self.stepper, self.Y[:self.k], self.U[:self.k], C, meta,
                                    sc.initial_state, sc.machine.controllers)
@@ -413,21 +461,27 @@ class PlantSimulator(RecorderWindowMixin, RealtimeMixin, Node):
         level, text = "ok", "running" if self.started else "waiting for controllers"
         if self.recorder_lagging or self.draining:
             text = f"waiting for recorder {self.p['wait_for_recorder']!r}"
+        elif self.waiting_text:
+            level, text = "warn", self.waiting_text
         absent = self.book.absent()
         if absent:
             level = "error"
             text = "; ".join(f"{a}: {self.book.reason(a)}" for a in absent)
         elif self.fault_log:
             level, text = "warn", self.fault_log[-1]
-        if self.finished and self.exit_status:
-            level, text = "error", "run ended early: " + self.fault_log[-1]
+        if self.finished and self.exit_status and self.k < self.n_steps:
+            level, text = "error", "run ended early: " + (self.fault_log or [""])[-1]
         elif self.finished and not absent:
             text = "run complete" + (f" ({len(self.fault_log)} faults)" if self.fault_log else "")
+            if self.exit_status:
+                level, text = "error", f"{text}; {self.lockstep_record().verdict()}"
         per = [(f"{self.get_name()}: {name}", "ok" if present else "error",
                 reason or "answering", {"faults": faults})
                for name, present, reason, faults in self.book.statuses()]
+        lockstep = [self._lockstep_status()] if self.started else []
         self.pub_diag.publish(m.diagnostics(m.sample_ns(self.k, self.T), [
-            (f"{self.get_name()}: loop", level, text, stats), *per, m.published_status(self)]))
+            (f"{self.get_name()}: loop", level, text, stats), *per, *lockstep,
+            m.published_status(self)]))
 
 
 def main(args=None) -> int:

@@ -38,8 +38,20 @@ and from the publishers' side every node of the package reports what it publishe
 recorded) are said on ``/diagnostics``, in the log and in the bag: the ``rotor_avc_counts``
 record holds per topic the messages published, recorded and lost.
 
-Ending: SIGINT/SIGTERM take what is still queued, finish the file (last chunk, counts, summary,
-indexes, rosbag2 metadata) and exit with status 0. After a SIGKILL (or a power cut) the file has
+**Lockstep, in the bag.** The plant reports its lockstep account on ``/diagnostics`` (status
+``<plant>: lockstep``: the samples at which a fault policy stood in for an answer, answers that
+changed, absent responders); the recorder writes the last report of the run into the bag's
+``rotor_avc_lockstep`` record (rotor_avc.bag.lockstep), which ``rotor-avc bag check``,
+``compare`` and ``replay --check`` read.
+
+**One recorder per namespace.** While it has taken no message of the namespace's topics yet, a
+recorder that finds another node publishing ``<ns>/recorder/progress`` (another recorder) does
+not record: one error line, exit status 6, no bag left behind
+(rotor_avc.nodes.namespace_guard).
+
+Ending: SIGINT/SIGTERM take what is still queued (at most DRAIN_MAX_S), finish the file (last
+chunk, counts, summary, indexes, rosbag2 metadata) and exit with status 0, whatever the graph
+does meanwhile. After a SIGKILL (or a power cut) the file has
 no summary and at most the messages of the last ``flush_period_s`` and the chunk being filled
 are lost (``chunk_size_bytes`` of messages; every full chunk is flushed at once):
 ``rotor_avc.bag.recover_bag(path)`` (or ``mcap recover``) writes ``<name>.recovered.mcap`` with
@@ -57,12 +69,15 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray
 
 from ..bag.errors import BagError
+from ..bag.lockstep import LOCKSTEP_RECORD, LOCKSTEP_SUFFIX, merge_reports
 from ..bag.metadata import qos_profiles
 from ..bag.msgdefs import DEFINITIONS
 from ..bag.writer import BagWriter
 from ..errors import RotorAvcError
+from ..output_files import EXIT_OUTPUT, OutputError
 from . import messages as m
 from . import taps
+from .namespace_guard import DISCOVERY_SETTLE_S, NamespaceGuard
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 
 PARAMS = COMMON_PARAMS + (
@@ -131,7 +146,12 @@ class Recorder(Node):
         self._skipped: set[str] = set()
         self._warned_remote: set[str] = set()
         self._last_progress, self._progress_at = None, 0.0
+        self.lockstep_reports: dict[str, dict[str, str]] = {}   # plant -> its last account
         self.exit_requested = False
+        self.exit_status = 0
+        self.guard = NamespaceGuard(self, "records", self.p["namespace"])
+        self._seen_at = None                 # wall time the namespace's topics were first seen
+        self.write_error: OutputError | None = None
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.pub_progress = taps.publisher(self, Float64MultiArray, self.progress_topic,
                                            m.LOCKSTEP_QOS)
@@ -170,8 +190,32 @@ class Recorder(Node):
         ch = self.channels[name] = _Channel(name, msg_type)
         return ch
 
+    def _namespace_taken(self) -> bool:
+        """Start-up (nothing of the namespace taken yet): another recorder publishes this
+        namespace's progress -> do not record (True; refused once it is named)."""
+        if self.guard.refusal:
+            return True
+        if any(ch.recorded or ch.queue for n, ch in self.channels.items()
+               if n.startswith(self.prefix)):
+            return False
+        return self.guard.taken([self.progress_topic])
+
+    def _settled(self, topics) -> bool:
+        """source dds: the namespace's topics have been seen for DISCOVERY_SETTLE_S (another
+        recorder is seen before this one subscribes: rotor_avc.nodes.namespace_guard)."""
+        if self._seen_at is None and any(n.startswith(self.prefix) and n != self.progress_topic
+                                         for n, _ in topics):
+            self._seen_at = time.monotonic()
+        return (self._seen_at is not None
+                and time.monotonic() - self._seen_at >= DISCOVERY_SETTLE_S)
+
     def _discover(self) -> None:
-        for name, types in self.get_topic_names_and_types():
+        if self._namespace_taken():
+            return
+        topics = self.get_topic_names_and_types()
+        if self.p["source"] == "dds" and not self._settled(topics):
+            return
+        for name, types in topics:
             if not self._recordable(name):
                 continue
             if self.p["source"] == "process":
@@ -237,7 +281,20 @@ class Recorder(Node):
 
     # -- the bag --------------------------------------------------------------------------------
     def flush(self) -> None:
-        """Write the queued messages to the bag and publish the progress."""
+        """Write the queued messages to the bag and publish the progress. A bag that cannot be
+        written (disk full, ...) ends the run: one error line, exit status EXIT_OUTPUT, the file
+        kept as far as it got."""
+        if self.write_error is not None:
+            return
+        try:
+            self._flush()
+        except OutputError as exc:
+            self.write_error = exc
+            self.get_logger().error(f"{exc}; the bag keeps what was written before "
+                                    "(`rotor-avc bag recover` finishes it)")
+            self.exit_requested, self.exit_status = True, EXIT_OUTPUT
+
+    def _flush(self) -> None:
         write = self.writer.write_raw
         for ch in self.channels.values():
             n = len(ch.queue)
@@ -273,6 +330,9 @@ class Recorder(Node):
             except Exception:            # not ours to judge: it is recorded as it came
                 continue
             for st in msg.status:
+                if st.name.endswith(LOCKSTEP_SUFFIX):
+                    self.lockstep_reports[st.name[:-len(LOCKSTEP_SUFFIX)]] = {
+                        kv.key: kv.value for kv in st.values}
                 if not st.name.endswith(m.PUBLISHED_SUFFIX):
                     continue
                 here = any(kv.key == m.PROCESS_KEY and kv.value == m.PROCESS_ID
@@ -347,6 +407,10 @@ class Recorder(Node):
         for untap in self._untap:
             untap()
         self.flush()
+        if self.guard.refusal:                # recorded nothing: leave no bag behind
+            self.writer.close()
+            self.writer.path.unlink(missing_ok=True)
+            return
         published, lost = self.published(), self.losses()
         log = self.get_logger()
         for name, ch in sorted(self.channels.items()):
@@ -356,7 +420,23 @@ class Recorder(Node):
                 log.error(f"{text}; LOST {lost[name]}")
             else:
                 log.info(text)
-        self.writer.close(published, lost)
+        lockstep = self._lockstep_record()
+        self.writer.close(published, lost,
+                          {LOCKSTEP_RECORD: lockstep} if lockstep is not None else None)
+
+    def _lockstep_record(self) -> dict[str, str] | None:
+        """The plants' last lockstep reports as the bag's record, its verdict logged (None when
+        no plant reported)."""
+        try:
+            record = merge_reports(self.lockstep_reports)
+        except BagError as exc:
+            self.get_logger().error(f"the bag has no lockstep record: {exc}")
+            return None
+        if record is None:
+            return None
+        log = self.get_logger()
+        (log.info if record.ok else log.error)(f"lockstep: {record.verdict()}")
+        return record.encode()
 
 
 def _duration(d) -> dict:

@@ -5,8 +5,16 @@ log-time order, on their topics -- all of them or a selection, each optionally r
 two modes:
 
 * **timed** (default): with the recorded timing scaled by ``rate``: the message logged at
-  ``t`` goes out at wall time ``t0 + (t - t_first) / rate`` (an absolute schedule: no drift; a
-  message already due goes out at once);
+  ``t`` goes out at wall time ``t0 + (t - t_first) / rate``, ``t0`` when the first one goes out
+  (an absolute schedule: no drift; a message already due goes out at once; a reader thread
+  keeps up to :data:`READ_AHEAD` messages read, so that reading a bag chunk, tens of ms, does
+  not hold up the messages due meanwhile). A rate the replay or the graph cannot hold is
+  measured and said, never hidden: the achieved rate (recorded time over wall time) and the log
+  times published more than :data:`LATE_S` after their due time are counted in the result
+  (:meth:`ReplayResult.rate_warning`). Answers are taken while publishing, and the replay never
+  runs more than :data:`TIMED_WINDOW` unanswered triggers ahead of the graph (it waits for the
+  answers, which the achieved rate then shows), so no queue overflows and every answer arrives:
+  a comparison of the answers does not fail because of the rate;
 * **lockstep** (``fast``): sample by sample, as fast as the graph answers: publish every message
   of one log time, wait until the answers they trigger have arrived, then the next log time.
 
@@ -31,7 +39,9 @@ the defaults (:class:`AnswerRule.exact`).
 Start: replay first waits (at most ``discovery_timeout_s``) until every replayed topic has a
 subscriber and every subscription the graph lists is matched to its publisher, then subscribes to
 the live answer topics, waits until they are matched too, and lets :data:`SETTLE_S` pass, so
-the first messages are not lost (topics are volatile). In both modes the answers are collected;
+the first messages are not lost (topics are volatile). The answers are taken by a volatile
+subscription (answers published before this replay, e.g. to an earlier one, are not taken for
+its own). In both modes the answers are collected;
 :func:`compare_answers` checks them against the bag's recorded answers (the regression check of a
 controller: same filter, same inputs -> the same forces).
 """
@@ -39,7 +49,10 @@ from __future__ import annotations
 
 import importlib
 import itertools
+import queue
 import re
+import sys
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -63,6 +76,16 @@ SETTLE_S = 0.2
 LIVE_STABLE_S = 1.0
 #: lockstep: an unanswered trigger is published again after this wall time
 RESEND_AFTER_S = 0.25
+#: timed: a log time published more than this after its due time is late (counted and said)
+LATE_S = 0.05
+#: timed: at most this many triggers of one answer topic are unanswered at a time (well inside
+#: the LOCKSTEP_DEPTH queues of the answering node and of this replay's answer subscription)
+TIMED_WINDOW = 1000
+#: timed: messages a reader thread keeps read ahead of the schedule (more than one bag chunk)
+READ_AHEAD = 4096
+#: the interpreter's thread switch interval while the reader thread runs (Python's default,
+#: 5 ms, would let it hold a due message back that long at every switch)
+READ_AHEAD_SWITCH_S = 1e-4
 
 
 class ReplayError(RotorAvcError):
@@ -175,6 +198,20 @@ class ReplayResult:
     resends: int = 0                            # lockstep: triggers published again
     answers: dict[str, list[tuple[int, bytes]]] = field(default_factory=dict)
     missing: dict[str, int] = field(default_factory=dict)         # answer -> stamps unanswered
+    rate: float | None = None                   # timed: the requested rate
+    achieved_rate: float | None = None          # timed: recorded time / wall time taken
+    late: int = 0                               # timed: log times published > LATE_S late
+    max_lag_s: float = 0.0                      # timed: the most a log time went out late
+
+    def rate_warning(self) -> str | None:
+        """Timed replay that did not hold its rate: the achieved rate and the late log times."""
+        if self.rate is None or not self.late:
+            return None
+        achieved = ("" if self.achieved_rate is None else
+                    f"achieved {self.achieved_rate:.2g}x of the requested {self.rate:g}x; ")
+        return (f"could not hold --rate {self.rate:g}: {achieved}{self.late} of {self.samples} "
+                f"log times published more than {LATE_S:g} s late (up to {self.max_lag_s:.3g} s "
+                "behind the schedule)")
 
 
 class Replayer(Node):
@@ -220,7 +257,7 @@ class Replayer(Node):
             self.awaiting[topic] = set()
             subs[topic] = self.create_subscription(
                 cls, topic, self._on_answer(topic, m.raw_time_reader(msg_type)),
-                m.LOCKSTEP_QOS, raw=True)
+                m.RELIABLE_QOS, raw=True)
         _spin_until(executor, lambda: all(s.get_publisher_count() >= self.count_publishers(t)
                                           for t, s in subs.items()),
                     time.monotonic() + max(discovery_timeout_s, 1.0))
@@ -278,25 +315,14 @@ class Replayer(Node):
         self.published = dict.fromkeys(self.plan.topics, 0)
         self.resends = 0
         t_start = time.monotonic()
-        samples = 0
+        schedule = None if fast else _Schedule(rate)
         messages = self.reader.raw_messages(list(self.plan.topics))
-        t_first = None
-        for time_ns, group in itertools.groupby(messages, key=lambda msg: msg.time_ns):
-            samples += 1
-            if not fast:
-                if t_first is None:
-                    t_first = time_ns
-                due = t_start + (time_ns - t_first) * 1e-9 / rate
-                while (left := due - time.monotonic()) > 0:
-                    if self.live:                 # answers arrive while waiting
-                        executor.spin_once(timeout_sec=left)
-                    else:
-                        time.sleep(left)
-            group = list(group)
-            for msg in group:
-                self._publish(msg)
-            if fast:
-                self._wait_answers(executor, group, answer_timeout_s, time_ns)
+        if not fast:
+            messages = _read_ahead(messages, READ_AHEAD)
+        try:
+            samples = self._publish_all(executor, messages, schedule, answer_timeout_s)
+        finally:
+            messages.close()              # a reader thread ends before the bag may be closed
         if not fast:
             _spin_until(executor, lambda: not any(self.awaiting.values()),
                         time.monotonic() + answer_timeout_s)
@@ -308,7 +334,49 @@ class Replayer(Node):
             {self.plan.topics[t]: n for t, n in self.published.items()}, samples, wall,
             {trigger: a.topic for trigger, a in self.live.items()},
             [t for t in self.plan.answers if t not in self.live], self.resends, self.answers,
-            {t: len(s) for t, s in self.awaiting.items() if s})
+            {t: len(s) for t, s in self.awaiting.items() if s},
+            *(() if fast else (rate, schedule.achieved_rate(), schedule.late, schedule.max_lag_s)))
+
+    def _publish_all(self, executor, messages, schedule: "_Schedule | None",
+                     answer_timeout_s: float) -> int:
+        """Publish every log time's messages, timed by ``schedule`` or (None) in lockstep; the
+        number of log times."""
+        samples = 0
+        for time_ns, group in itertools.groupby(messages, key=lambda msg: msg.time_ns):
+            samples += 1
+            group = list(group)
+            if schedule is not None:
+                due = schedule.due(time_ns)
+                while (left := due - time.monotonic()) > 0:
+                    if self.live:                 # answers arrive while waiting
+                        executor.spin_once(timeout_sec=left)
+                    else:
+                        time.sleep(left)
+                self._hold_window(executor, answer_timeout_s, time_ns)
+            for msg in group:
+                self._publish(msg)
+            if schedule is None:
+                self._wait_answers(executor, group, answer_timeout_s, time_ns)
+            else:
+                schedule.published(time_ns, due)
+                if self.live:
+                    executor.spin_once(timeout_sec=0)    # take the answers that came meanwhile
+        return samples
+
+    def _hold_window(self, executor, timeout_s: float, time_ns: int) -> None:
+        """Timed: wait (spinning) while an answer topic has TIMED_WINDOW unanswered triggers;
+        ReplayError when none of them is answered within ``timeout_s``."""
+        def full():
+            return any(len(s) >= TIMED_WINDOW for s in self.awaiting.values())
+        while full():
+            n_before = sum(map(len, self.awaiting.values()))
+            progress = lambda: sum(map(len, self.awaiting.values())) < n_before  # noqa: E731
+            if not _spin_until(executor, progress, time.monotonic() + timeout_s):
+                topics = ", ".join(t for t, s in self.awaiting.items() if len(s) >= TIMED_WINDOW)
+                raise ReplayError(
+                    f"no answer within {timeout_s:g} s on {topics} with {TIMED_WINDOW} triggers "
+                    f"unanswered (before the messages logged at {time_ns} ns) -- fix: check that "
+                    "the node answering it runs, or leave its trigger out with --topics")
 
     def _wait_answers(self, executor, group, timeout_s: float, time_ns: int) -> None:
         """Lockstep: spin until the group's answers are in; publish the unanswered triggers
@@ -327,6 +395,85 @@ class Replayer(Node):
                         timeout_s, ", ".join(f"{t} for stamp {s[0]} ns" for t, s in late.items()),
                         time_ns))
             self._resend(group)
+
+
+class _Schedule:
+    """A timed replay's absolute schedule, from its first message on (the message logged at
+    ``t`` is due at ``t_zero + (t - t_first) / rate``), and how well it was held."""
+
+    def __init__(self, rate: float):
+        self.rate = rate
+        self.t_first: int | None = None
+        self.t_zero = 0.0
+        self.last: tuple[int, float] | None = None     # (log time, wall time) published last
+        self.late = 0
+        self.max_lag_s = 0.0
+
+    def due(self, time_ns: int) -> float:
+        if self.t_first is None:
+            self.t_first, self.t_zero = time_ns, time.monotonic()
+        return self.t_zero + (time_ns - self.t_first) * 1e-9 / self.rate
+
+    def published(self, time_ns: int, due: float) -> None:
+        now = time.monotonic()
+        self.late += now - due > LATE_S
+        self.max_lag_s = max(self.max_lag_s, now - due)
+        self.last = (time_ns, now)
+
+    def achieved_rate(self) -> float | None:
+        """Recorded time over wall time from the first publication to the last; None without
+        a recorded time span."""
+        if self.last is None or self.last[0] <= self.t_first or self.last[1] <= self.t_zero:
+            return None
+        return (self.last[0] - self.t_first) * 1e-9 / (self.last[1] - self.t_zero)
+
+
+def _read_ahead(messages, depth: int):
+    """The items of the generator ``messages``, read by a thread that keeps up to ``depth`` of
+    them ahead of the consumer; the first is handed out once ``depth`` are read (or all), so a
+    short selection is read whole before the schedule starts. An exception of the reading (a
+    damaged chunk) is raised here. Closing this generator stops and joins the thread."""
+    items: queue.Queue = queue.Queue(depth)
+    stop, primed = threading.Event(), threading.Event()
+    done = object()
+
+    def put(item) -> bool:
+        while not stop.is_set():
+            try:
+                items.put(item, timeout=0.1)
+                if items.full():
+                    primed.set()
+                return True
+            except queue.Full:
+                primed.set()
+        return False
+
+    def read() -> None:
+        try:
+            for msg in messages:
+                if not put(msg):
+                    return
+            put(done)
+        except Exception as exc:          # handed to the consumer
+            put(exc)
+        finally:
+            primed.set()
+            messages.close()
+
+    thread = threading.Thread(target=read, name="replay_read_ahead", daemon=True)
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(READ_AHEAD_SWITCH_S)
+    thread.start()
+    try:
+        primed.wait()
+        while (item := items.get()) is not done:
+            if isinstance(item, Exception):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        thread.join()
+        sys.setswitchinterval(interval)
 
 
 def _spin_until(executor, condition, t_end: float) -> bool:

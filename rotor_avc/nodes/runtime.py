@@ -17,13 +17,15 @@ from typing import Any, Callable, Sequence
 import rclpy
 from rclpy.duration import Duration
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from ..errors import RotorAvcError
 from ..scenario import load_scenario
-from . import signals
+from . import signals, transport
+from .param_types import type_refusal
 
 EXECUTORS = ("events", "single_threaded", "multi_threaded")
 FINAL_DIAGNOSTICS_WAIT_S = 5.0       # returns as soon as every subscriber has the message
@@ -67,8 +69,7 @@ class Param:
         if isinstance(self.default, float) and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         if type(value) is not type(self.default):
-            raise ParameterError(f"{where} must be a {type(self.default).__name__} (got {value!r})"
-                                 f" -- fix: set it in the params file, e.g. {self.name}: {self.default!r}")
+            raise ParameterError(type_refusal(self, node_name, value))
         if isinstance(value, float) and not math.isfinite(value):
             raise ParameterError(f"{where} must be finite (got {value})")
         if self.minimum is not None and value < self.minimum:
@@ -82,13 +83,22 @@ class Param:
 
 
 def declare_parameters(node: Node, params: Sequence[Param]) -> dict[str, Any]:
-    """Declare every parameter with its descriptor and return the validated values."""
+    """Declare every parameter with its descriptor and return the validated values. A value
+    given with another type than the declared one, or outside the declared range, is refused by
+    rclpy on declaration; the refusal is said in one line (rotor_avc.nodes.param_types,
+    :meth:`Param.check`) with the value given (rclpy's parameter overrides)."""
     values = {}
     for p in params:
         try:
             node.declare_parameter(p.name, p.default, p.descriptor())
             value = node.get_parameter(p.name).value
         except Exception as exc:        # rclpy raises several types for bad overrides
+            override = getattr(node, "_parameter_overrides", {}).get(p.name)
+            given = None if override is None else override.value
+            if isinstance(exc, InvalidParameterTypeException):
+                raise ParameterError(type_refusal(p, node.get_name(), given)) from None
+            if isinstance(exc, InvalidParameterValueException) and given is not None:
+                p.check(given, node.get_name())       # out of range: refused by name and bound
             raise ParameterError(f"{node.get_name()}: parameter '{p.name}': {exc} -- fix: "
                                  f"{p.description}") from None
         values[p.name] = p.check(value, node.get_name())
@@ -131,13 +141,15 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
     """``main()`` of a node: init, build, spin with the node's executor, shut down cleanly.
 
     A :class:`RotorAvcError` while building (bad parameter or config) is printed as one line and
-    exits with status 2; SIGINT/SIGTERM -- at any time, also during the imports and while the
+    exits with status 2 (or the error's own ``exit_status``, e.g. 74 for an output that cannot be
+    written); SIGINT/SIGTERM -- at any time, also during the imports and while the
     node is still being built (rotor_avc.nodes.signals) -- end the run after the current
     callback through the same clean shutdown (files closed) with status 0. A node that ends its
     run on its own sets ``exit_requested`` and, when the run failed, ``exit_status`` (non-zero,
     said in its log). Before the executor is shut down, a node's ``drain(executor)`` (if it has
     one) takes what is still queued for it."""
     signals.running()
+    transport.use_loopback_profile()          # every UDP socket on 127.0.0.1
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     status = 0
@@ -157,7 +169,7 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         status = getattr(node, "exit_status", 0)
     except RotorAvcError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        status = 2
+        status = getattr(exc, "exit_status", 2)
     except (signals.Stop, KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -165,18 +177,27 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         if node is not None:
             if rclpy.ok():
                 _final_diagnostics(node)
-            close_node(node)
+            closed = close_node(node)
+            status = status or closed
         if rclpy.ok():
             rclpy.shutdown()
     return status
 
 
-def close_node(node: Node) -> None:
-    """Finish what the node has open (its ``close()``, e.g. a bag) and destroy it."""
+def close_node(node: Node) -> int:
+    """Finish what the node has open (its ``close()``, e.g. a bag) and destroy it. A
+    :class:`RotorAvcError` while finishing (a bag that cannot be written to the end: disk full,
+    ...) is printed as one line; returns its exit status (else 0)."""
     close = getattr(node, "close", None)
-    if close is not None:
-        close()
-    node.destroy_node()
+    try:
+        if close is not None:
+            close()
+    except RotorAvcError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return getattr(exc, "exit_status", 2)
+    finally:
+        node.destroy_node()
+    return 0
 
 
 def _final_diagnostics(node: Node) -> None:

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.active_bearing_ff import METHODS
+from ..output_files import make_folder, open_text, save_figure, write_text
 
 
 def write_active_bearing_files(out: Path, sweep, method, alpha, forces_sat, il_sat, piezo, rows, summary) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "cases.csv", "w", newline="") as fh:
+    make_folder(out)
+    with open_text(out / "cases.csv", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -31,12 +32,12 @@ def write_active_bearing_files(out: Path, sweep, method, alpha, forces_sat, il_s
     il_s = res.insertion_loss_db(forces_sat)
     for k in shaft:
         cols[f"il_saturated_{res.output_names[k]}_db"] = il_s[:, k]
-    with open(out / "il_over_speed.csv", "w", newline="") as fh:
+    with open_text(out / "il_over_speed.csv", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(list(cols))
         for row in np.column_stack(list(cols.values())):
             w.writerow([f"{x:.8g}" for x in row])
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    write_text(out / "summary.json", json.dumps(summary, indent=1))
     paths = [out / "cases.csv", out / "il_over_speed.csv", out / "summary.json"]
     paths += plot_active_bearing(out, sweep, method, il_sat, piezo)
     for p in paths:
@@ -67,7 +68,7 @@ def plot_active_bearing(out: Path, sweep, method, il_sat, piezo) -> list[Path]:
     axes[0].set_ylabel("insertion loss IL [dB]")
     axes[1].legend(fontsize=6, ncol=2)
     fig.tight_layout()
-    fig.savefig(out / "il_over_speed.png", dpi=110)
+    save_figure(fig, out / "il_over_speed.png", dpi=110)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -79,6 +80,6 @@ def plot_active_bearing(out: Path, sweep, method, il_sat, piezo) -> list[Path]:
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out / "piezo_force.png", dpi=110)
+    save_figure(fig, out / "piezo_force.png", dpi=110)
     plt.close(fig)
     return [out / "il_over_speed.png", out / "piezo_force.png"]

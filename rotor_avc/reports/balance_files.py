@@ -6,12 +6,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output_files import save_figure, write_text, writing
+
 
 def write_rigid_runs(path: Path, bal, ref, b_true, err, switch_times) -> Path:
     """The seed-004 run-up balanced (``bal``) and not (``ref``) as ``balance.npz``."""
-    np.savez(path, t=bal.t, output_balanced=bal.output, output_unbalanced=ref.output,
-             position=bal.position, target=bal.target, mode=bal.mode.astype(str), b_hat=bal.b_hat,
-             b_true=b_true, rel_error=err, std=bal.std, switch_times=np.array(switch_times))
+    with writing(path) as tmp:
+        np.savez(tmp, t=bal.t, output_balanced=bal.output, output_unbalanced=ref.output,
+                 position=bal.position, target=bal.target, mode=bal.mode.astype(str),
+                 b_hat=bal.b_hat, b_true=b_true, rel_error=err, std=bal.std,
+                 switch_times=np.array(switch_times))
     return path
 
 
@@ -19,11 +23,12 @@ def write_machine_runs(out: Path, rec, none, envelopes, unbalance, err, table) -
     """The machine's quasi-steady run-ups per strategy (``balance.npz``) and the per-resonance
     table (``resonances.json``)."""
     path = out / "balance.npz"
-    np.savez(path, t=rec.t, speed_rad_s=rec.speed, envelope_none=none,
-             **{f"envelope_{k}": v for k, v in envelopes.items()}, position=rec.position,
-             estimate=rec.estimate, unbalance=unbalance, rel_error=err, std=rec.std,
-             mode=rec.mode.astype(str))
-    (out / "resonances.json").write_text(json.dumps(table, indent=1))
+    with writing(path) as tmp:
+        np.savez(tmp, t=rec.t, speed_rad_s=rec.speed, envelope_none=none,
+                 **{f"envelope_{k}": v for k, v in envelopes.items()}, position=rec.position,
+                 estimate=rec.estimate, unbalance=unbalance, rel_error=err, std=rec.std,
+                 mode=rec.mode.astype(str))
+    write_text(out / "resonances.json", json.dumps(table, indent=1))
     return path, out / "resonances.json"
 
 
@@ -48,7 +53,7 @@ def plot_rigid_runs(path, bal, ref, err, switches) -> None:
         a.legend(loc="upper left", fontsize=8)
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -73,5 +78,5 @@ def plot_machine_runs(path, rec, none, envelopes, err) -> None:
         a.legend(fontsize=8)
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

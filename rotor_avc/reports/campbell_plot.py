@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.campbell import CampbellDiagram
+from ..output_files import save_figure
 
 #: ``--colour`` -> (axis label, ``CampbellDiagram -> (speeds, modes)`` values)
 COLOUR_BY = {
@@ -58,6 +59,6 @@ def plot_campbell(cd: CampbellDiagram, path: Path, title: str, colour: str = "da
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

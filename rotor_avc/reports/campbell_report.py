@@ -10,6 +10,7 @@ import numpy as np
 from ..analysis.campbell import CampbellDiagram
 from .campbell_plot import COLOUR_BY
 from ..interactive.page import Figure, page, table_html
+from ..output_files import write_text
 
 
 def campbell_figures(cd: CampbellDiagram, colour: str, orders, max_freq_hz: float | None):
@@ -67,5 +68,5 @@ def write_campbell_html(cd: CampbellDiagram, path: Path, title: str, colour: str
                                   ("speed_rpm", "speed [rpm]"), ("freq_hz", "whirl frequency [Hz]")])
               if onsets else "<p>Every mode stays stable over the speed range.</p>",
               fig_damping]
-    path.write_text(page(title, blocks, default_speed_unit=speed_unit))
+    write_text(path, page(title, blocks, default_speed_unit=speed_unit))
     return path

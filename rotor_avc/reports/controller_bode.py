@@ -5,6 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output_files import save_figure
+
 
 def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
     """``|G_c(jw)|`` and phase against the discrete filter ``G_d(e^{jwT})`` up to Nyquist."""
@@ -34,6 +36,6 @@ def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
     ax1.legend(fontsize=8)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -8,12 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from ..closed_loop.frf import SpeedFrf
+from ..output_files import open_text, save_figure
 
 
 def write_frf_csv(frf: SpeedFrf, path: Path) -> Path:
     """``speed_hz`` then ``<name>_mag`` (SI per unit excitation) and ``<name>_phase_deg``."""
     names = list(frf.responses)
-    with open(path, "w", newline="") as fh:
+    with open_text(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["speed_hz"] + [f"{n}_{c}" for n in names for c in ("mag", "phase_deg")])
         cols = [frf.speed_hz]
@@ -60,7 +61,7 @@ def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
         fig.suptitle(f"{title} {kind} response to {excitation} excitation".strip(), fontsize=10)
         fig.tight_layout()
         path = out_dir / f"frf_{kind}_{excitation}.png"
-        fig.savefig(path, dpi=110)
+        save_figure(fig, path, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..analysis.gain_study import GainStudy
 from ..control.spec import FEEDBACK_ORDER
 from .study_report import write_study_html
+from ..output_files import open_text, save_figure
 
 
 #: paper units for the plots: (mm/s)/um for velocities per metre, N/um for forces per metre
@@ -19,7 +20,7 @@ def write_gain_study(study: GainStudy, stem: Path, plots: bool) -> list[Path]:
     resonance speeds, heights, reductions, largest actuator forces) and the plots."""
     gname = f"{study.gain_name}_{study.structure}"
     curves = stem.with_name(stem.name + "_curves.csv")
-    with open(curves, "w", newline="") as fh:
+    with open_text(curves, newline="") as fh:
         w = csv.writer(fh)
         cols = [(q, i) for q in study.curves for i in range(len(study.gains))]
         w.writerow(["speed_rpm"] + [f"{q}_{gname}={study.gains[i]:g}" for q, i in cols])
@@ -27,7 +28,7 @@ def write_gain_study(study: GainStudy, stem: Path, plots: bool) -> list[Path]:
             w.writerow([f"{n:.6g}"] + [f"{study.curves[q][i, k]:.8g}" for q, i in cols])
     summary = stem.with_name(stem.name + "_summary.csv")
     forces = [q for q in study.curves if q.startswith("actuator")]
-    with open(summary, "w", newline="") as fh:
+    with open_text(summary, newline="") as fh:
         w = csv.writer(fh)
         w.writerow([gname] + [f"{r.label}_{c}" for r in study.resonances for c in
                               ("speed_rpm", "amplitude", "reduction_window_pct",
@@ -73,7 +74,7 @@ def plot_gain_study(study: GainStudy, stem: Path) -> list[Path]:
     fig.suptitle(f"Response over speed per gain: {title}", fontsize=10)
     fig.tight_layout()
     paths = [stem.with_name(stem.name + "_curves.png")]
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
@@ -89,7 +90,7 @@ def plot_gain_study(study: GainStudy, stem: Path) -> list[Path]:
     fig.suptitle(f"Resonance shift and reduction: {title}", fontsize=10)
     fig.tight_layout()
     paths.append(stem.with_name(stem.name + "_resonances.png"))
-    fig.savefig(paths[-1], dpi=110)
+    save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
     paths.append(write_study_html(study, stem.with_name(stem.name + ".html"), glabel))
     return paths

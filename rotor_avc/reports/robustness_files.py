@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output_files import open_text, save_figure, write_text
+
 #: the columns of the quantile table (:func:`rotor_avc.analysis.robustness.summarize`)
 STATS = ("mean", "std", "min", "p5", "p50", "p95", "max")
 
@@ -16,9 +18,9 @@ STATS = ("mean", "std", "min", "p5", "p50", "p95", "max")
 def write_summary(summary: dict, unit_of, folder: Path) -> list[Path]:
     """``summary.json`` (everything) and ``summary.csv`` (one row per quantity)."""
     js = folder / "summary.json"
-    js.write_text(json.dumps(summary, indent=1) + "\n")
+    write_text(js, json.dumps(summary, indent=1) + "\n")
     path = folder / "summary.csv"
-    with open(path, "w", newline="") as fh:
+    with open_text(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["quantity", "unit"] + list(STATS))
         for name, m in summary["metrics"].items():
@@ -50,6 +52,6 @@ def plot_distributions(records: list[dict], summary: dict, unit_of, path: Path) 
     fig.suptitle(f"{summary['points']} points: P(stable) = {summary['stability_probability']:.3f}; "
                  "lines: 5 / 50 / 95 % quantiles", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

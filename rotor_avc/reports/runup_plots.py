@@ -8,6 +8,7 @@ import numpy as np
 
 from ..compare.runup_views import OneXTrack, Orbit, Waterfall
 from .campbell_plot import speed_axis
+from ..output_files import save_figure
 
 ORDERS = (1, 2, 3, 4)
 
@@ -21,7 +22,7 @@ def _pyplot():
 
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     _pyplot().close(fig)
     return path
 

@@ -10,6 +10,7 @@ import numpy as np
 from ..compare.runup_views import OneXTrack, Orbit, Waterfall
 from ..interactive.page import Figure, page, table_html
 from .runup_plots import ORDERS
+from ..output_files import write_text
 
 API_COLUMNS = [("speed_hz", "N_c [Hz]"), ("speed_rpm", "N_c [rpm]"), ("peak", "peak"),
                ("amplification_factor", "AF"), ("n1_hz", "N_1 [Hz]"), ("n2_hz", "N_2 [Hz]"),
@@ -106,5 +107,5 @@ def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], wf:
         blocks += bode_figures(track, channel)
     if orbits:
         blocks += ["<h2>Orbits</h2>", orbit_figure(orbits)]
-    path.write_text(page(title, blocks, default_speed_unit=speed_unit))
+    write_text(path, page(title, blocks, default_speed_unit=speed_unit))
     return path

@@ -10,12 +10,13 @@ import numpy as np
 
 from ..analysis.stability_study import RAD_S_PER_RPM, StudyResult, stability_loop
 from ..analysis.stability_threshold import eigenvalues_over_speed
+from ..output_files import open_text, save_figure, write_text
 
 
 # -- plots ----------------------------------------------------------------------------------------
 def write_threshold(result, path: Path) -> Path:
     """The threshold, its status and the whirl-frequency iteration as JSON."""
-    path.write_text(json.dumps(
+    write_text(path, json.dumps(
         {**result.summary(), "status": result.status, "whirl_iteration": [
             {"w_F_rad_s": p.w_F, "threshold_rpm": None if p.speed_rad_s is None
              else p.speed_rad_s / RAD_S_PER_RPM, "whirl_rad_s": p.whirl_rad_s,
@@ -25,7 +26,7 @@ def write_threshold(result, path: Path) -> Path:
 
 def write_study_rows(rows: list[dict], path: Path) -> Path:
     """One row per study point (the varied values, threshold, whirl, mode, status) as CSV."""
-    with open(path, "w", newline="") as fh:
+    with open_text(path, newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
@@ -70,7 +71,7 @@ def plot_campbell(machine, result, settings, path: Path) -> Path:
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -104,6 +105,6 @@ def plot_map(study: StudyResult, path: Path) -> Path:
     fig.suptitle("threshold of stability" + (" (blank: none found, see thresholds.csv)"
                                               if np.any(np.isnan(n)) else ""), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..analysis.stability_study import StudyResult
 from ..interactive.page import Figure, page, table_html
+from ..output_files import write_text
 
 
 def write_stability_study_html(study: StudyResult, path: Path, title: str) -> Path:
@@ -30,5 +31,5 @@ def write_stability_study_html(study: StudyResult, path: Path, title: str) -> Pa
                                       "<br>threshold %{z:.5g} rpm<extra></extra>"}],
                        x_title=vx.label, y_title=vy.label, speed_axis=None, height_px=560)]
     columns = [(k, k) for k in rows[0]]
-    path.write_text(page(title, [*figs, "<h2>Points</h2>", table_html(rows, columns)]))
+    write_text(path, page(title, [*figs, "<h2>Points</h2>", table_html(rows, columns)]))
     return path

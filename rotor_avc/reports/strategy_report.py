@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..compare.report import _plt, _table
+from ..output_files import make_folder, open_text, save_figure, write_text
 
 
 def _fmt(v, digits=3) -> str:
@@ -50,15 +51,15 @@ def plots(results, sensors, out_dir: Path) -> list[Path]:
         axes[0, 0].legend(fontsize=7)
         fig.tight_layout()
         paths.append(out_dir / f"one_x_vs_{axis.split('_')[0]}.png")
-        fig.savefig(paths[-1], dpi=90)
+        save_figure(fig, paths[-1], dpi=90)
         plt.close(fig)
     return paths
 
 
 def write_report(results, sensors, out_dir: Path, source: str, plot: bool = True) -> Path:
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir)
     head, body = rows(results, sensors)
-    with open(out_dir / "strategies.csv", "w", newline="") as fh:
+    with open_text(out_dir / "strategies.csv", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(head)
         w.writerows(body)
@@ -73,7 +74,7 @@ def write_report(results, sensors, out_dir: Path, source: str, plot: bool = True
                   for r in results]
         peaks = ("<h2>1x peak reduction at the model's resonances (dB)</h2>"
                  + _table(p_body, p_head))
-        with open(out_dir / "peak_reductions.csv", "w", newline="") as fh:
+        with open_text(out_dir / "peak_reductions.csv", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(p_head)
             w.writerows(p_body)
@@ -84,5 +85,5 @@ def write_report(results, sensors, out_dir: Path, source: str, plot: bool = True
             f"one-revolution loop radius and quasi-steady phase-error limit of the harmonic "
             f"law.</p>{_table(body, head)}{peaks}{imgs}</body></html>")
     path = out_dir / "index.html"
-    path.write_text(text)
+    write_text(path, text)
     return path

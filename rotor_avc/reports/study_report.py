@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..analysis.gain_study import GainStudy
 from ..interactive.page import Figure, page
+from ..output_files import write_text
 
 
 def write_study_html(study: GainStudy, path: Path, gain_label: str) -> Path:
@@ -25,5 +26,5 @@ def write_study_html(study: GainStudy, path: Path, gain_label: str) -> Path:
                    "y": getattr(r, key)} for r in study.resonances]
         blocks.append(Figure(f"resonance-{key}", f"{what} over gain", traces, x_title=gain_label,
                              y_title=f"{what} {unit}", speed_axis=None, height_px=360))
-    path.write_text(page(title, blocks, default_speed_unit="rpm"))
+    write_text(path, page(title, blocks, default_speed_unit="rpm"))
     return path

@@ -20,6 +20,7 @@ import numpy as np
 import pyuff
 
 from ..compare.comparison import Comparison
+from ..output_files import writing
 
 FRF, COHERENCE = 4, 6
 #: UFF specific data types and SI unit exponents (length, force) by unit label
@@ -102,6 +103,6 @@ def write_uff(comp: Comparison, path) -> Path | None:
     if not records:
         return None
     path = Path(path)
-    path.unlink(missing_ok=True)
-    pyuff.UFF(str(path)).write_sets(records, mode="add")
+    with writing(path) as tmp:
+        pyuff.UFF(str(tmp)).write_sets(records, mode="add")
     return path

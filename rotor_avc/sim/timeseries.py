@@ -34,6 +34,7 @@ from typing import Iterable, Iterator
 import numpy as np
 
 from ..errors import ModelError
+from ..output_files import writing
 
 FORMAT = "rotor_avc.timeseries/1"
 AXES = ("time_s", "speed_rad_s", "accel_rad_s2", "angle_rad")
@@ -60,12 +61,13 @@ class TimeSeries:
 
     # -- files ---------------------------------------------------------------------------------
     def save(self, path) -> Path:
-        """Write the ``.npz`` format of the module docstring; returns the path."""
+        """Write the ``.npz`` format of the module docstring (complete or not at all,
+        :func:`rotor_avc.output_files.writing`); returns the path."""
         path = _npz_path(path)
         arrays = self._arrays()
         arrays["metadata_json"] = self._metadata_json()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(path, **arrays)
+        with writing(path) as tmp:
+            np.savez_compressed(tmp, **arrays)
         return path
 
     def _arrays(self) -> dict[str, np.ndarray]:

@@ -17,9 +17,12 @@ this process), in at most :data:`MAX_TASKS` batches, unless the batch size is gi
 that raises is recorded with its error (``"Type: message"``) and the study goes on. With an
 output folder, finished points are journaled as they arrive and a study started again on the
 same folder computes only the points not yet there (:mod:`rotor_avc.studies.output`).
+Ctrl-C or SIGTERM stops a study at a clean point (:mod:`rotor_avc.studies.interrupt`): the
+workers are stopped and the tables of the finished points written.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -28,6 +31,7 @@ from pathlib import Path
 from ..errors import ConfigError
 from ..resources import check_memory, check_time
 from .backends import SerialBackend
+from .interrupt import check as check_stop, stop_on_signals
 from .output import ResultStore
 from .points import OUTCOME_BYTES
 from .progress import Progress
@@ -69,9 +73,6 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
     ``batch_size``: points per task (default: about :data:`TASK_TARGET_S` of work per task, the
     cost measured on the first points here; given, every point goes to the backend);
     ``on_outcome(outcome)``: called in this process for every finished point."""
-    from .backends import SerialBackend
-    from .output import ResultStore
-
     if batch_size is not None and batch_size < 1:
         raise ConfigError("--batch-size", f"must be >= 1 (got {batch_size})",
                           fix="give --batch-size 10, or leave it out for about 0.1 s per task")
@@ -96,23 +97,27 @@ def run_study(spec: StudySpec, backend=None, out: Path | None = None, batch_size
             store.append(fresh)
         computed += len(fresh)
         bar.update(len(done))
+        check_stop()
 
     cost, size = None, batch_size or 1
-    try:
-        first, cost = (0, None) if batch_size or not todo else _calibrate(spec, todo, record)
-        rest = todo[first:]
-        if cost:
-            check_time(cost * len(rest) / backend.workers,
-                       f"the study's {len(rest)} remaining points at {cost:.3g} s each on "
-                       f"{backend.workers} worker(s)", "use fewer points or more workers")
-        size = batch_size or (max(math.ceil(TASK_TARGET_S / cost), math.ceil(len(rest) / MAX_TASKS))
-                              if cost else 1)
-        if rest:
-            for batch in backend.run(spec, batches_of(rest, size)):
-                record(batch)
-    finally:
-        bar.close()
-        files = store.finish() if store else []
+    with stop_on_signals():
+        try:
+            first, cost = (0, None) if batch_size or not todo else _calibrate(spec, todo, record)
+            rest = todo[first:]
+            if cost:
+                workers = backend.workers
+                check_time(cost * len(rest) / workers,
+                           f"the study's {len(rest)} remaining points at {cost:.3g} s each on "
+                           f"{workers} worker(s)", "use fewer points or more workers")
+            size = batch_size or (max(math.ceil(TASK_TARGET_S / cost),
+                                      math.ceil(len(rest) / MAX_TASKS)) if cost else 1)
+            if rest:
+                with contextlib.closing(backend.run(spec, batches_of(rest, size))) as results:
+                    for batch in results:            # closed (workers stopped) on any exit
+                        record(batch)
+        finally:
+            bar.close()
+            files = store.finish() if store else []
     missing = [i for i in range(n) if i not in done]
     if missing:
         raise RuntimeError(f"the backend returned no result for {len(missing)} points "

@@ -1,16 +1,21 @@
 """Incremental study results in a folder: a journal while the study runs, tables at the end.
 
-* ``study.json`` -- what the study is (points, evaluator, configuration) and its fingerprint;
-* ``journal.csv`` -- one line per finished point, appended (and flushed) as results arrive in
-  any order: a study started again on the folder reads it and computes only the missing points
-  (a line cut off by an interruption is dropped and recomputed). A sample's identity leaves out
-  its number of points, so a study with a larger ``--n`` on the folder adds points to it, and
-  one with a smaller ``--n`` reports the first ones;
-* ``points.csv`` and ``points.npz`` -- every finished point in index order, rewritten (each
-  file replaced whole) every :data:`SNAPSHOT_S` s or more while the study runs, and when it ends
-  or is interrupted. Columns: ``index``, the axis values, the record's fields,
-  ``error`` (empty when the point succeeded). The CSV holds floats in their shortest exact
-  form (``repr``), so it reads back bit for bit.
+* ``study.json`` -- what the study is (points, evaluator, configuration, columns) and its
+  fingerprint, the SHA-256 of all that in canonical JSON;
+* ``journal.csv`` -- one line per finished point, appended (and synced) as results arrive in
+  any order, below a line with the fingerprint (:mod:`rotor_avc.studies.journal`): a study
+  started again on the folder checks every line against its own points and computes only the
+  missing ones (a line cut off by an interruption is dropped and recomputed; a foreign or
+  damaged folder is refused with the file, the line and the fix). A sample's identity leaves
+  out its number of points, so a study with a larger ``--n`` on the folder adds points to it,
+  and one with a smaller ``--n`` reports the first ones;
+* ``points.csv`` and ``points.npz`` -- every finished point in index order, rewritten every
+  :data:`SNAPSHOT_S` s or more while the study runs, and when it ends or is interrupted.
+  Columns: ``index``, the axis values, the record's fields, ``error`` (empty when the point
+  succeeded). The CSV holds floats in their shortest exact form (``repr``), so it reads back
+  bit for bit;
+* ``study.lock`` -- held by the study that runs on the folder (:mod:`rotor_avc.studies.folder`:
+  one study at a time, every file replaced whole, the operating system's failures as one line).
 
 ``points.npz`` is the columnar copy, one array per column (numbers as float64 with NaN where a
 value is missing, text as unicode): ``numpy.load`` opens it, and
@@ -25,7 +30,6 @@ import hashlib
 import io
 import json
 import math
-import os
 import time
 import zipfile
 from pathlib import Path
@@ -33,41 +37,42 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..output_files import output_errors
+from .folder import FOREIGN_FIX, FolderLock, reading, replace_file
+from .journal import Journal, cell
 from .spec import Outcome, StudySpec
 
 #: least time between two rewrites of the tables while a study runs (s); a rewrite that takes
 #: long spaces the next one ten times its duration out
 SNAPSHOT_S = 30.0
+#: the version of the folder's layout (part of the fingerprint)
+LAYOUT = 2
 
 
-def fingerprint(spec: StudySpec) -> str:
-    text = json.dumps({"points": spec.points.describe(), "evaluator": spec.evaluator.describe()},
-                      sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _cell(value) -> str:
+def _canonical(value):
+    """JSON for what ``json`` does not know: arrays in full (``str`` would abbreviate them)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
     if isinstance(value, np.generic):
-        value = value.item()
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value)
+        return value.item()
+    if isinstance(value, (set, frozenset)):
+        return sorted(value, key=repr)
     return str(value)
 
 
-def _parse(text: str, kind: type):
-    if text == "":
-        return None
-    if kind is bool:
-        return text == "true"
-    return kind(text)
+def manifest(spec: StudySpec) -> dict:
+    """``study.json``: the study's identity (points, evaluator, columns) and its fingerprint."""
+    fields = {name: kind.__name__ for name, kind in spec.evaluator.fields.items()}
+    identity = {"layout": LAYOUT, "points": spec.points.describe(),
+                "evaluator": spec.evaluator.describe(), "labels": list(spec.points.labels),
+                "fields": fields}
+    text = json.dumps(identity, sort_keys=True, default=_canonical, allow_nan=True)
+    return {"fingerprint": hashlib.sha256(text.encode()).hexdigest(), **json.loads(text)}
 
 
 class ResultStore:
-    """The output folder of one study (see the module docstring)."""
+    """The output folder of one study (see the module docstring), locked while it is open;
+    :meth:`finish` writes the tables and releases it."""
 
     def __init__(self, folder: Path, spec: StudySpec):
         fields = spec.evaluator.fields
@@ -79,25 +84,42 @@ class ResultStore:
         self.fields = dict(fields)
         self.columns = ["index"] + self.labels + list(self.fields) + ["error"]
         self.spec = spec
-        manifest = {"fingerprint": fingerprint(spec), "columns": self.columns,
-                    "points": spec.points.describe(), "evaluator": spec.evaluator.describe()}
-        folder.mkdir(parents=True, exist_ok=True)
-        path = folder / "study.json"
-        self.journal = folder / "journal.csv"
-        if path.exists():
-            old = json.loads(path.read_text())
-            if old.get("fingerprint") != manifest["fingerprint"]:
-                raise ConfigError("--out", f"{folder} holds the results of a different study",
-                                  fix="give another --out folder, or delete that one to start over")
-        else:
-            path.write_text(json.dumps(manifest, indent=1, default=str) + "\n")
-        self.rows: dict[int, list[str]] = {}
-        self.done = self._read_journal()
+        with output_errors(folder):
+            folder.mkdir(parents=True, exist_ok=True)
+        self._lock = FolderLock(folder)
+        try:
+            study = manifest(spec)
+            self._check_manifest(folder / "study.json", study)
+            self.journal = Journal(folder / "journal.csv", self.columns, study["fingerprint"],
+                                   self.labels, self.fields)
+            read = self.journal.read(spec.points)
+            n = len(spec.points)                       # a larger sample's points are kept
+            self.rows = {i: row for i, (row, _) in read.items() if i < n}
+            self.done = {i: outcome for i, (_, outcome) in read.items() if i < n}
+            self.journal.open()
+        except BaseException:
+            self._lock.release()
+            raise
         self._next_snapshot = time.monotonic() + SNAPSHOT_S
-        self._fh = open(self.journal, "a", newline="")
-        if self._fh.tell() == 0:
-            self._fh.write(",".join(self.columns) + "\n")
-            self._fh.flush()
+
+    @staticmethod
+    def _check_manifest(path: Path, study: dict) -> None:
+        """Refuse a ``study.json`` of another study or a damaged one; write a missing one."""
+        if not path.exists():
+            replace_file(path, lambda fh: fh.write(
+                (json.dumps(study, indent=1) + "\n").encode()))
+            return
+        with reading(path):
+            data = path.read_bytes()
+        try:
+            old = json.loads(data.decode("utf-8"))
+            found = old["fingerprint"]
+        except (UnicodeDecodeError, ValueError, TypeError, KeyError):
+            raise ConfigError("--out", f"{path} is damaged (not the JSON of a study)",
+                              fix=FOREIGN_FIX) from None
+        if found != study["fingerprint"]:
+            raise ConfigError("--out", f"{path.parent} holds the results of a different study "
+                                       f"({path.name} has another fingerprint)", fix=FOREIGN_FIX)
 
     # -- journal ------------------------------------------------------------------------------
     def _row(self, o: Outcome) -> list[str]:
@@ -106,47 +128,18 @@ class ResultStore:
         unknown = set(record) - set(self.fields)
         if unknown:
             raise ValueError(f"record fields {sorted(unknown)} are not declared by the evaluator")
-        return ([str(o.index)] + [_cell(point[lab]) for lab in self.labels]
-                + [_cell(record.get(f)) for f in self.fields] + [o.error or ""])
-
-    def _read_journal(self) -> dict[int, Outcome]:
-        if not self.journal.exists():
-            return {}
-        text = self.journal.read_text()
-        complete = text[:text.rfind("\n") + 1]           # a cut-off last line is dropped
-        if len(complete) != len(text):
-            self.journal.write_text(complete)
-        lines = complete.splitlines()
-        if not lines:
-            return {}
-        if lines[0].split(",") != self.columns:
-            raise ConfigError("--out", f"{self.journal} has other columns than this study",
-                              fix="give another --out folder, or delete that one to start over")
-        kinds = list(self.fields.values())
-        first = 1 + len(self.labels)
-        done = {}
-        for row in csv.reader(lines[1:]):
-            index, error = int(row[0]), row[-1] or None
-            if index >= len(self.spec.points):           # a larger study of the same points
-                continue
-            record = None if error else {
-                f: _parse(v, k) for f, v, k in zip(self.fields, row[first:-1], kinds)}
-            done[index] = Outcome(index, record, error)
-            self.rows[index] = row
-        return done
+        return ([str(o.index)] + [cell(point[lab]) for lab in self.labels]
+                + [cell(record.get(f)) for f in self.fields] + [o.error or ""])
 
     def append(self, outcomes: list[Outcome]) -> None:
         """Journal finished points (and rewrite the tables when a snapshot is due)."""
         if not outcomes:
             return
         rows = [self._row(o) for o in outcomes]
+        self.journal.append(rows)
         for o, row in zip(outcomes, rows):
             self.done[o.index] = o
             self.rows[o.index] = row
-        buf = io.StringIO()
-        csv.writer(buf, lineterminator="\n").writerows(rows)
-        self._fh.write(buf.getvalue())
-        self._fh.flush()
         if time.monotonic() >= self._next_snapshot:
             start = time.monotonic()
             self.write_tables()
@@ -154,21 +147,24 @@ class ResultStore:
 
     # -- tables -------------------------------------------------------------------------------
     def finish(self) -> list[Path]:
-        """Close the journal and write the tables."""
-        self._fh.close()
-        return self.write_tables()
+        """Close the journal, write the tables and release the folder."""
+        try:
+            self.journal.close()
+            return self.write_tables()
+        finally:
+            self._lock.release()
 
     def write_tables(self) -> list[Path]:
         """``points.csv`` and ``points.npz`` of the finished points in index order."""
         order = sorted(self.done)
         outcomes = [self.done[i] for i in order]
         rows = [self.rows[i] for i in order]
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(self.columns)
+        w.writerows(rows)
         csv_path = self.folder / "points.csv"
-        with open(csv_path.with_suffix(".csv.part"), "w", newline="") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow(self.columns)
-            w.writerows(rows)
-        os.replace(csv_path.with_suffix(".csv.part"), csv_path)
+        replace_file(csv_path, lambda fh: fh.write(buf.getvalue().encode()))
         columns = {"index": np.array([o.index for o in outcomes], dtype=np.int64)}
         for k, lab in enumerate(self.labels, start=1):
             columns[lab] = np.array([float(r[k]) for r in rows], dtype=float)
@@ -179,16 +175,16 @@ class ResultStore:
                           np.array([math.nan if v is None else float(v) for v in values]))
         columns["error"] = np.array([o.error or "" for o in outcomes], dtype=str)
         npz_path = self.folder / "points.npz"
-        write_npz(npz_path.with_suffix(".npz.part"), columns)
-        os.replace(npz_path.with_suffix(".npz.part"), npz_path)
+        replace_file(npz_path, lambda fh: write_npz(fh, columns))
         return [csv_path, npz_path]
 
 
-def write_npz(path: Path, columns: dict[str, np.ndarray]) -> None:
-    """``numpy.savez`` with a fixed entry date (equal arrays give equal bytes)."""
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+def write_npz(fh, columns: dict[str, np.ndarray]) -> None:
+    """``numpy.savez`` into the binary file ``fh`` with a fixed entry date (equal arrays give
+    equal bytes)."""
+    with zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as zf:
         for name, array in columns.items():
             info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
-            with zf.open(info, "w", force_zip64=True) as fh:
-                np.lib.format.write_array(fh, np.asarray(array), allow_pickle=False)
+            with zf.open(info, "w", force_zip64=True) as out:
+                np.lib.format.write_array(out, np.asarray(array), allow_pickle=False)

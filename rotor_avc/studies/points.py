@@ -143,8 +143,9 @@ class Grid:
         return Point(int(index), values, overrides)
 
     def describe(self) -> dict:
+        """The grid's identity: its axes and the config they change."""
         return {"grid": [{"paths": a.paths, "scale": a.scale, "values": a.values.tolist()}
-                         for a in self.axes]}
+                         for a in self.axes], "config": self.cfg.data}
 
 
 class ValueList:
@@ -248,7 +249,8 @@ class Sample:
         return Point(int(index), values, overrides)
 
     def describe(self) -> dict:
-        """The sample's identity -- axes and seed, not the number of points: a study with more
-        (or fewer) points shares its first points with this one."""
+        """The sample's identity -- axes, seed and the config they change, not the number of
+        points: a study with more (or fewer) points shares its first points with this one."""
         return {"sample": [{"paths": a.paths, "scale": a.scale, "distribution": a.distribution,
-                            "params": a.params} for a in self.axes], "seed": self.seed}
+                            "params": a.params} for a in self.axes], "seed": self.seed,
+                "config": self.cfg.data}

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .interrupt import check as check_stop
+
 
 @dataclass(frozen=True)
 class Outcome:
@@ -32,6 +34,7 @@ def evaluate_batch(spec: StudySpec, context, indices) -> list[Outcome]:
     its error instead of a record."""
     out = []
     for index in indices:
+        check_stop()                             # a stop asked for in this process
         try:
             out.append(Outcome(int(index), spec.evaluator.evaluate(context, spec.points.point(index))))
         except Exception as exc:     # noqa: BLE001 -- recorded with the point, the study goes on
