@@ -171,7 +171,7 @@ def test_an_explicit_hold_policy_run_says_it_is_not_lockstep(tmp_path):
     assert "NOT LOCKSTEP" in plant and f"exit status {PLANT_NOT_LOCKSTEP}" in plant, plant
     with BagReader(bag) as r:
         record = r.lockstep
-    assert not record.ok and record.fault_policy == "hold" and record.substituted >= 300
+    assert not record.ok and record.fault_policy == "hold" and record.substituted >= 1
     first = int(record.substituted_at.split("-")[0].split(",")[0])
     assert first >= k_stop, (k_stop, record.substituted_at)       # stopped after k_stop
     line = next(line for line in check_bag(bag) if line.name == "lockstep")
@@ -211,10 +211,11 @@ def test_a_second_plant_or_recorder_on_the_namespace_is_refused(tmp_path):
     procs = start_graph(sc, bag)
     try:
         assert watch.wait(lambda: watch.sample >= 200, procs)
-        second = node_process("plant_simulator", "-r", "__node:=plant_two", "-p",
-                              f"scenario:={sc}")
-        recorder = node_process("recorder", "-r", "__node:=recorder_two", "-p",
-                                f"scenario:={sc}", "-p", f"path:={other_bag}")
+        second = procs["plant_two"] = node_process(
+            "plant_simulator", "-r", "__node:=plant_two", "-p", f"scenario:={sc}")
+        recorder = procs["recorder_two"] = node_process(
+            "recorder", "-r", "__node:=recorder_two", "-p", f"scenario:={sc}", "-p",
+            f"path:={other_bag}")
         plant_out = second.communicate(timeout=300)[0]
         recorder_out = recorder.communicate(timeout=300)[0]
         k_refused = watch.sample

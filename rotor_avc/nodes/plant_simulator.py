@@ -174,6 +174,7 @@ class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
         self.fault_log: list[str] = []
         self.waiting_text = ""
         self.connected_since = None           # wall time since which every responder is seen
+        self.graph_seen = None                # and the namespace's endpoints stayed the same
         self._init_watch()
         self.create_timer(0.01, self._tick_waiting)
         self.create_timer(1.0, self._publish_diagnostics)
@@ -214,6 +215,13 @@ class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
             self._advance()
 
     # -- start ----------------------------------------------------------------------------------
+    def _graph_seen(self) -> tuple:
+        """What discovery has shown of the sampled and answer topics so far (endpoint counts)."""
+        topics = [t for t, _ in self.get_topic_names_and_types()
+                  if t.startswith(m.topic("", self.p["namespace"]))]
+        return tuple((t, self.count_publishers(t), self.count_subscribers(t))
+                     for t in sorted(topics))
+
     def _connected(self) -> bool:
         ns = self.p["namespace"]
         for pub, msg, idx in self.meas:       # each controller's own signal must be heard
@@ -343,13 +351,17 @@ class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
             if self._namespace_taken():
                 return
             if self._connected():
-                # discovery is asynchronous: the graph must hold still a moment before
-                # sample 0, so that another plant on the namespace is seen before it
-                self.connected_since = self.connected_since or now
+                # discovery is asynchronous (and slow on a loaded host): the graph must hold
+                # still for a moment -- no publisher or subscription of the namespace's sampled
+                # topics appearing -- before sample 0, so that another plant on the namespace
+                # is seen before this one steps
+                seen = self._graph_seen()
+                if seen != self.graph_seen:
+                    self.graph_seen, self.connected_since = seen, now
                 if now - self.connected_since >= DISCOVERY_SETTLE_S:
                     self._start()
                 return
-            self.connected_since = None
+            self.connected_since = self.graph_seen = None
             if now - self.t_created > self.p["discovery_timeout_s"]:
                 missing = [f for f in self.driven if self.count_publishers(
                     m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]

@@ -458,7 +458,9 @@ def _read_ahead(messages, depth: int):
             put(exc)
         finally:
             primed.set()
-            messages.close()
+            close = getattr(messages, "close", None)     # a generator: its bag is closed
+            if close is not None:
+                close()
 
     thread = threading.Thread(target=read, name="replay_read_ahead", daemon=True)
     interval = sys.getswitchinterval()
