@@ -150,7 +150,9 @@ class Recorder(Node):
         self.exit_requested = False
         self.exit_status = 0
         self.guard = NamespaceGuard(self, "records", self.p["namespace"])
-        self._seen_at = None                 # wall time the namespace's topics were first seen
+        self._seen_at = None                 # wall time the namespace's publishers last changed
+        self._graph_seen = None              # ... and what they were
+        self._settled_once = False
         self.write_error: OutputError | None = None
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
         self.pub_progress = taps.publisher(self, Float64MultiArray, self.progress_topic,
@@ -201,13 +203,21 @@ class Recorder(Node):
         return self.guard.taken([self.progress_topic])
 
     def _settled(self, topics) -> bool:
-        """source dds: the namespace's topics have been seen for DISCOVERY_SETTLE_S (another
-        recorder is seen before this one subscribes: rotor_avc.nodes.namespace_guard)."""
-        if self._seen_at is None and any(n.startswith(self.prefix) and n != self.progress_topic
-                                         for n, _ in topics):
-            self._seen_at = time.monotonic()
-        return (self._seen_at is not None
-                and time.monotonic() - self._seen_at >= DISCOVERY_SETTLE_S)
+        """source dds: the namespace's publishers have stayed the same for DISCOVERY_SETTLE_S
+        since its topics were first seen (discovery is slow on a loaded host: another recorder
+        is seen before this one subscribes, rotor_avc.nodes.namespace_guard); once settled,
+        it stays so."""
+        if self._settled_once:
+            return True
+        seen = tuple(sorted((n, self.count_publishers(n)) for n, _ in topics
+                            if n.startswith(self.prefix)))
+        if not any(n != self.progress_topic for n, _ in seen):
+            return False
+        now = time.monotonic()
+        if seen != self._graph_seen:
+            self._graph_seen, self._seen_at = seen, now
+        self._settled_once = now - self._seen_at >= DISCOVERY_SETTLE_S
+        return self._settled_once
 
     def _discover(self) -> None:
         if self._namespace_taken():
