@@ -110,6 +110,9 @@ def test_killed_controller_process(tmp_path):
         assert spin_until(ex, lambda: "DR" in plant.book.absent(), timeout_s=10)
         procs["DR"] = node_process("foot_controller", "-r", "__node:=fc_DR", "-p",
                                    f"scenario:={sc}", "-p", "foot_id:=DR")
+        # the plant (not spun meanwhile) waits until the new process is in the graph: on a
+        # busy machine it would otherwise step through the rest of the run before DR is back
+        assert wait_for_nodes(["fc_DR"], procs=[procs["DR"]])
         assert spin_until(ex, lambda: not plant.book.absent() or plant.finished, timeout_s=90)
         assert spin_until(ex, lambda: plant.finished, timeout_s=120)
     finally:
