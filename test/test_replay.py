@@ -29,7 +29,9 @@ from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
 from rotor_avc.nodes.recorder import RECORD_QOS
 from rotor_avc.nodes.replay import (LATE_S, AnswerRule, Replayer, ReplayError, ReplayResult,
-                                    _read_ahead, compare_answers, plan_replay)
+                                    plan_replay)
+from rotor_avc.nodes.replay_check import compare_answers
+from rotor_avc.nodes.replay_timing import read_ahead as _read_ahead
 
 pytestmark = pytest.mark.ros
 DL_ACC, DL_FORCE = "/avc/foot/DL/acceleration", "/avc/foot/DL/actuator_force"

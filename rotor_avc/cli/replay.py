@@ -99,6 +99,7 @@ def run(args) -> int:
                   "source): its sample sequence is not checked")
         try:
             from ..nodes import replay as R          # rclpy: imported only here
+            from ..nodes.replay_check import compare_answers
         except ImportError as exc:
             raise RotorAvcError(f"replay needs ROS 2 Jazzy's rclpy ({exc}) -- fix: install the "
                                 "`ros` extra or source a ROS 2 installation") from None
@@ -119,7 +120,7 @@ def run(args) -> int:
             print(f"  {trigger} -> {answer}")
         for trigger in result.unanswered:
             print(f"  {trigger}: no node publishes {plan.answers[trigger].topic}; not awaited")
-        checks = R.compare_answers(reader, plan, result)
+        checks = compare_answers(reader, plan, result)
     for c in checks:
         print(f"{c.topic}: {c.answers} answers, {c.compared} compared with {c.recorded_topic}: "
               f"max |difference| {c.max_abs_diff:.3g} (largest recorded value "

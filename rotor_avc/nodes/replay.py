@@ -42,17 +42,14 @@ the live answer topics, waits until they are matched too, and lets :data:`SETTLE
 the first messages are not lost (topics are volatile). The answers are taken by a volatile
 subscription (answers published before this replay, e.g. to an earlier one, are not taken for
 its own). In both modes the answers are collected;
-:func:`compare_answers` checks them against the bag's recorded answers (the regression check of a
+:func:`rotor_avc.nodes.replay_check.compare_answers` checks them against the bag's recorded answers (the regression check of a
 controller: same filter, same inputs -> the same forces).
 """
 from __future__ import annotations
 
 import importlib
 import itertools
-import queue
 import re
-import sys
-import threading
 import time
 from dataclasses import dataclass, field
 
@@ -62,10 +59,11 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from ..bag.reader import BagReader, _numeric_leaves
+from ..bag.reader import BagReader
 from ..errors import RotorAvcError
 from . import messages as m
 from . import taps
+from .replay_timing import LATE_S, Schedule, read_ahead
 from .runtime import make_executor
 
 _NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
@@ -76,16 +74,11 @@ SETTLE_S = 0.2
 LIVE_STABLE_S = 1.0
 #: lockstep: an unanswered trigger is published again after this wall time
 RESEND_AFTER_S = 0.25
-#: timed: a log time published more than this after its due time is late (counted and said)
-LATE_S = 0.05
 #: timed: at most this many triggers of one answer topic are unanswered at a time (well inside
 #: the LOCKSTEP_DEPTH queues of the answering node and of this replay's answer subscription)
 TIMED_WINDOW = 1000
 #: timed: messages a reader thread keeps read ahead of the schedule (more than one bag chunk)
 READ_AHEAD = 4096
-#: the interpreter's thread switch interval while the reader thread runs (Python's default,
-#: 5 ms, would let it hold a due message back that long at every switch)
-READ_AHEAD_SWITCH_S = 1e-4
 
 
 class ReplayError(RotorAvcError):
@@ -315,10 +308,10 @@ class Replayer(Node):
         self.published = dict.fromkeys(self.plan.topics, 0)
         self.resends = 0
         t_start = time.monotonic()
-        schedule = None if fast else _Schedule(rate)
+        schedule = None if fast else Schedule(rate)
         messages = self.reader.raw_messages(list(self.plan.topics))
         if not fast:
-            messages = _read_ahead(messages, READ_AHEAD)
+            messages = read_ahead(messages, READ_AHEAD)
         try:
             samples = self._publish_all(executor, messages, schedule, answer_timeout_s)
         finally:
@@ -337,7 +330,7 @@ class Replayer(Node):
             {t: len(s) for t, s in self.awaiting.items() if s},
             *(() if fast else (rate, schedule.achieved_rate(), schedule.late, schedule.max_lag_s)))
 
-    def _publish_all(self, executor, messages, schedule: "_Schedule | None",
+    def _publish_all(self, executor, messages, schedule: "Schedule | None",
                      answer_timeout_s: float) -> int:
         """Publish every log time's messages, timed by ``schedule`` or (None) in lockstep; the
         number of log times."""
@@ -397,87 +390,6 @@ class Replayer(Node):
             self._resend(group)
 
 
-class _Schedule:
-    """A timed replay's absolute schedule, from its first message on (the message logged at
-    ``t`` is due at ``t_zero + (t - t_first) / rate``), and how well it was held."""
-
-    def __init__(self, rate: float):
-        self.rate = rate
-        self.t_first: int | None = None
-        self.t_zero = 0.0
-        self.last: tuple[int, float] | None = None     # (log time, wall time) published last
-        self.late = 0
-        self.max_lag_s = 0.0
-
-    def due(self, time_ns: int) -> float:
-        if self.t_first is None:
-            self.t_first, self.t_zero = time_ns, time.monotonic()
-        return self.t_zero + (time_ns - self.t_first) * 1e-9 / self.rate
-
-    def published(self, time_ns: int, due: float) -> None:
-        now = time.monotonic()
-        self.late += now - due > LATE_S
-        self.max_lag_s = max(self.max_lag_s, now - due)
-        self.last = (time_ns, now)
-
-    def achieved_rate(self) -> float | None:
-        """Recorded time over wall time from the first publication to the last; None without
-        a recorded time span."""
-        if self.last is None or self.last[0] <= self.t_first or self.last[1] <= self.t_zero:
-            return None
-        return (self.last[0] - self.t_first) * 1e-9 / (self.last[1] - self.t_zero)
-
-
-def _read_ahead(messages, depth: int):
-    """The items of the generator ``messages``, read by a thread that keeps up to ``depth`` of
-    them ahead of the consumer; the first is handed out once ``depth`` are read (or all), so a
-    short selection is read whole before the schedule starts. An exception of the reading (a
-    damaged chunk) is raised here. Closing this generator stops and joins the thread."""
-    items: queue.Queue = queue.Queue(depth)
-    stop, primed = threading.Event(), threading.Event()
-    done = object()
-
-    def put(item) -> bool:
-        while not stop.is_set():
-            try:
-                items.put(item, timeout=0.1)
-                if items.full():
-                    primed.set()
-                return True
-            except queue.Full:
-                primed.set()
-        return False
-
-    def read() -> None:
-        try:
-            for msg in messages:
-                if not put(msg):
-                    return
-            put(done)
-        except Exception as exc:          # handed to the consumer
-            put(exc)
-        finally:
-            primed.set()
-            close = getattr(messages, "close", None)     # a generator: its bag is closed
-            if close is not None:
-                close()
-
-    thread = threading.Thread(target=read, name="replay_read_ahead", daemon=True)
-    interval = sys.getswitchinterval()
-    sys.setswitchinterval(READ_AHEAD_SWITCH_S)
-    thread.start()
-    try:
-        primed.wait()
-        while (item := items.get()) is not done:
-            if isinstance(item, Exception):
-                raise item
-            yield item
-    finally:
-        stop.set()
-        thread.join()
-        sys.setswitchinterval(interval)
-
-
 def _spin_until(executor, condition, t_end: float) -> bool:
     while not condition():
         left = t_end - time.monotonic()
@@ -504,73 +416,3 @@ def replay_bag(reader: BagReader, plan: ReplayPlan, *, executor_kind: str = "eve
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown(context=context)
-
-
-# -- the regression check (free of ROS) ---------------------------------------------------------
-@dataclass(frozen=True)
-class AnswerCheck:
-    """Live answers of one topic against the bag's recorded answers, matched by stamp."""
-
-    topic: str
-    recorded_topic: str
-    answers: int
-    compared: int               # answers with a recorded message of the same stamp
-    unmatched: int              # answers without one
-    unanswered: int             # triggers replayed but never answered
-    max_abs_diff: float         # over every numeric field of the compared messages
-    max_abs_value: float        # largest recorded value of those fields (the scale)
-
-    def passed(self, tolerance: float) -> bool:
-        return (self.compared > 0 and self.unmatched == 0 and self.unanswered == 0
-                and self.max_abs_diff <= tolerance)
-
-
-def compare_answers(reader: BagReader, plan: ReplayPlan, result: ReplayResult) -> list[AnswerCheck]:
-    """Compare every collected answer topic with its recorded counterpart in the bag."""
-    recorded_of = {a.topic: a.recorded for a in plan.answers.values()}
-    checks = []
-    for topic, answers in result.answers.items():
-        recorded_topic = recorded_of.get(topic, topic)
-        if recorded_topic not in reader.topics:
-            checks.append(AnswerCheck(topic, recorded_topic, len(answers), 0, len(answers),
-                                      result.missing.get(topic, 0), float("inf"), 0.0))
-            continue
-        codec = reader.codec(recorded_topic)
-        time_of = m.raw_time_reader(reader.topics[recorded_topic].msg_type)
-        recorded = {}
-        for msg in reader.raw_messages(recorded_topic):
-            stamp = time_of(msg.data)
-            recorded.setdefault(msg.time_ns if stamp is None else stamp, msg.data)
-        seen, diff, scale, compared, unmatched = set(), 0.0, 0.0, 0, 0
-        for stamp, data in answers:
-            if stamp in seen:
-                continue                   # a repeated answer (a resent trigger)
-            seen.add(stamp)
-            if stamp not in recorded:
-                unmatched += 1
-                continue
-            d, s = _leaf_difference(codec.decode(data), codec.decode(recorded[stamp]))
-            diff, scale, compared = max(diff, d), max(scale, s), compared + 1
-        checks.append(AnswerCheck(topic, recorded_topic, len(answers), compared, unmatched,
-                                  result.missing.get(topic, 0), diff, scale))
-    return checks
-
-
-def _leaf_difference(live: dict, recorded: dict) -> tuple[float, float]:
-    """(max |live - recorded| over every numeric field, max |recorded| over the floating-point
-    fields, i.e. the values without the stamps); inf when the structures differ or only one
-    of two values is NaN."""
-    a, b = dict(_numeric_leaves(live, "")), dict(_numeric_leaves(recorded, ""))
-    if a.keys() != b.keys():
-        return float("inf"), 0.0
-    diff = scale = 0.0
-    for path, value in b.items():
-        x, y = np.asarray(a[path], float), np.asarray(value, float)
-        if x.shape != y.shape:
-            return float("inf"), 0.0
-        if y.size:
-            d = np.where(np.isnan(x) & np.isnan(y), 0.0, np.abs(x - y))   # NaN = NaN only
-            diff = max(diff, float(np.max(np.nan_to_num(d, nan=np.inf))))
-            if np.asarray(value).dtype.kind == "f" or isinstance(value, float):
-                scale = max(scale, float(np.max(np.abs(y))))
-    return diff, scale
