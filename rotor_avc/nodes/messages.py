@@ -29,7 +29,6 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PointStamped, TwistStamped, WrenchStamped
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState  # noqa: F401  (Imu re-exported)
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -38,35 +37,9 @@ from ..bag.cdr import CdrCodec, Layout
 from ..bag.msgdefs import DEFINITIONS, known_specs
 from ..bag.topics import FOOT_SIGNALS, NAMESPACE, foot_topic, topic  # noqa: F401  (re-exported)
 from ..bag.topics import check_array_size
+from .qos import (DIAGNOSTICS_QOS, LOCKSTEP_DEPTH, LOCKSTEP_QOS,  # noqa: F401  (re-exported)
+                  MEASUREMENT_QOS, RECORDER_MARGIN, RELIABLE_QOS, SENSOR_QOS)
 
-#: history of the lockstep publishers: deeper than any recorder window (the plant's
-#: ``recorder_window`` is at most LOCKSTEP_DEPTH - RECORDER_MARGIN), so a writer never overwrites
-#: a message that a recording reader has not taken yet
-LOCKSTEP_DEPTH = 4096
-RECORDER_MARGIN = 96
-#: lockstep traffic: reliable, KEEP_LAST LOCKSTEP_DEPTH, transient-local: a reader gets what was
-#: published before it matched (discovery is asynchronous, so a subscription can exist before
-#: the publisher delivers to it). The package's own lockstep readers (plant, controllers,
-#: balancer, harmonic controller) ask for it; such a reader matches only reliable,
-#: transient-local publishers
-LOCKSTEP_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
-                          history=HistoryPolicy.KEEP_LAST,
-                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: a sensor driver's input: the reliability and durability of rclpy's ``qos_profile_sensor_data``
-#: (best effort, volatile), which match every publisher -- best effort or reliable, volatile or
-#: transient-local -- with the lockstep depth (the newest LOCKSTEP_DEPTH messages kept)
-SENSOR_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT,
-                        history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
-#: reliable delivery without asking for history: matches reliable publishers of either
-#: durability (not best-effort ones)
-RELIABLE_QOS = QoSProfile(depth=LOCKSTEP_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
-                          history=HistoryPolicy.KEEP_LAST, durability=DurabilityPolicy.VOLATILE)
-#: the QoS a measurement subscription may take (rotor_avc.nodes.foot_controller)
-MEASUREMENT_QOS = {"sensor_data": SENSOR_QOS, "reliable": RELIABLE_QOS, "lockstep": LOCKSTEP_QOS}
-#: /diagnostics of the package's nodes: reliable, the last 10 kept for a late-joining recorder
-DIAGNOSTICS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
-                             history=HistoryPolicy.KEEP_LAST,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: the recorder's taken-message counts (rotor_avc.nodes.recorder), relative to the namespace
 RECORDER_PROGRESS = "recorder/progress"
 #: name suffix of the diagnostic status in which a node reports its published counts per topic

@@ -71,15 +71,16 @@ from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_
 from . import messages as m
 from . import taps
 from .lockstep import AnswerBook
-from .namespace_guard import DISCOVERY_SETTLE_S
-from .plant_params import EXIT_NODE_LEFT, EXIT_RECORDER_LOST, PARAMS
+from .plant_params import PARAMS
 from .plant_realtime import RealtimeMixin
+from .plant_startup import PlantStartupMixin
 from .plant_recorder_window import RecorderWindowMixin
 from .plant_watch import PlantWatchMixin
 from .runtime import check_node_design, declare_parameters, node_scenario, run_node
 from .timing import LoopTiming, Schedule
 
-class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
+class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, RealtimeMixin,
+                     Node):
     """The plant node (see the module docstring)."""
 
     def __init__(self, name: str = "plant_simulator", **kwargs):
@@ -215,31 +216,6 @@ class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
             self._advance()
 
     # -- start ----------------------------------------------------------------------------------
-    def _graph_seen(self) -> tuple:
-        """What discovery has shown of the sampled and answer topics so far (endpoint counts)."""
-        topics = [t for t, _ in self.get_topic_names_and_types()
-                  if t.startswith(m.topic("", self.p["namespace"]))]
-        return tuple((t, self.count_publishers(t), self.count_subscribers(t))
-                     for t in sorted(topics))
-
-    def _connected(self) -> bool:
-        ns = self.p["namespace"]
-        for pub, msg, idx in self.meas:       # each controller's own signal must be heard
-            if self.feedback.get(msg.foot_id) == msg.kind and pub.get_subscription_count() < 1:
-                return False
-        for foot in self.driven:
-            if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
-                return False
-        if self.p["balancer"] and self.count_publishers(m.topic("balancer/command", ns)) < 1:
-            return False
-        if len(self.driven) > len(self.feedback) and self.pub_joint.get_subscription_count() < 1:
-            return False                       # the feed-forward node answers joint_state
-        if self.p["harmonic"] and (self.count_publishers(self.harmonic_topic) < 1
-                                   or self.pub_obs.get_subscription_count() < 1
-                                   or self.pub_joint.get_subscription_count() < 1):
-            return False
-        return not self._unrecorded()
-
     def _start(self) -> None:
         sc = self.scenario
         # the periodic steady state depends on the controllers: the plant builds its own copies
@@ -348,48 +324,7 @@ class PlantSimulator(PlantWatchMixin, RecorderWindowMixin, RealtimeMixin, Node):
             return
         now = time.monotonic()
         if not self.started:
-            if self._namespace_taken():
-                return
-            if self._connected():
-                # discovery is asynchronous (and slow on a loaded host): the graph must hold
-                # still for a moment -- no publisher or subscription of the namespace's sampled
-                # topics appearing -- before sample 0, so that another plant on the namespace
-                # is seen before this one steps
-                seen = self._graph_seen()
-                if seen != self.graph_seen:
-                    self.graph_seen, self.connected_since = seen, now
-                if now - self.connected_since >= DISCOVERY_SETTLE_S:
-                    self._start()
-                return
-            self.connected_since = self.graph_seen = None
-            if now - self.t_created > self.p["discovery_timeout_s"]:
-                missing = [f for f in self.driven if self.count_publishers(
-                    m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
-                unrecorded = self._unrecorded()
-                if missing and self.p["fault_policy"] == "wait" and self.p["mode"] == "lockstep":
-                    for f in missing:
-                        self.gone[f] = f"never connected (no publisher of {self._answer_topic(f)})"
-                    self._fault(f"controllers did not connect within "
-                                f"{self.p['discovery_timeout_s']:g} s: {missing}; not starting the "
-                                f"run (exit status {EXIT_NODE_LEFT}) -- fix: start them with the "
-                                "same namespace and domain (fault_policy hold or zero runs "
-                                "without them, as a fault study)")
-                    self.exit_status = EXIT_NODE_LEFT
-                    self._finish(complete=False)
-                    return
-                if missing or not unrecorded:
-                    self._fault(f"controllers did not connect within "
-                                f"{self.p['discovery_timeout_s']:g} s: {missing}; starting with "
-                                "the fault policy for them")
-                if unrecorded:
-                    self._fault(f"recorder {self.p['wait_for_recorder']!r} does not record "
-                                f"{', '.join(unrecorded)} after {self.p['discovery_timeout_s']:g}"
-                                " s; not starting the run (exit status 1) -- fix: start the "
-                                "recorder first, with the same namespace and domain")
-                    self.exit_status = EXIT_RECORDER_LOST
-                    self._finish(complete=False)
-                    return
-                self._start()
+            self._tick_start(now)
             return
         if self.p["mode"] == "realtime":
             return

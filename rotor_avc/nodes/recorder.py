@@ -70,7 +70,6 @@ from std_msgs.msg import Float64MultiArray
 
 from ..bag.errors import BagError
 from ..bag.lockstep import LOCKSTEP_RECORD, LOCKSTEP_SUFFIX, merge_reports
-from ..bag.metadata import qos_profiles
 from ..bag.msgdefs import DEFINITIONS
 from ..bag.writer import BagWriter
 from ..errors import RotorAvcError
@@ -78,6 +77,7 @@ from ..output_files import EXIT_OUTPUT, OutputError
 from . import messages as m
 from . import taps
 from .namespace_guard import DISCOVERY_SETTLE_S, NamespaceGuard
+from .qos import offered_qos
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 
 PARAMS = COMMON_PARAMS + (
@@ -188,7 +188,7 @@ class Recorder(Node):
             self.get_logger().warning(f"not recording {name}: type {', '.join(types)} is "
                                       "not one the bag format knows (rotor_avc.bag.msgdefs)")
             return None
-        self.writer.add_topic(name, msg_type, self._offered_qos(name))
+        self.writer.add_topic(name, msg_type, offered_qos(self, name))
         ch = self.channels[name] = _Channel(name, msg_type)
         return ch
 
@@ -269,25 +269,6 @@ class Recorder(Node):
         ch.lost += info.total_count_change
         self.get_logger().error(f"{ch.name}: DDS lost {info.total_count_change} message(s) "
                                 f"before the recorder took them ({ch.lost} in all)")
-
-    def _offered_qos(self, name: str) -> list[dict] | None:
-        """The QoS of the topic's publishers in the bag's form (None: the default profile)."""
-        profiles = []
-        for info in self.get_publishers_info_by_topic(name):
-            q = info.qos_profile
-            profiles.append({
-                "history": q.history.name.lower(), "depth": q.depth,
-                "reliability": q.reliability.name.lower(), "durability": q.durability.name.lower(),
-                "deadline": _duration(q.deadline), "lifespan": _duration(q.lifespan),
-                "liveliness": q.liveliness.name.lower(),
-                "liveliness_lease_duration": _duration(q.liveliness_lease_duration),
-                "avoid_ros_namespace_conventions": q.avoid_ros_namespace_conventions})
-        try:
-            return qos_profiles(profiles) if profiles else None
-        except BagError as exc:
-            self.get_logger().warning(f"{name}: offered QoS not recordable ({exc}); "
-                                      "recording the default profile")
-            return None
 
     # -- the bag --------------------------------------------------------------------------------
     def flush(self) -> None:
@@ -447,11 +428,6 @@ class Recorder(Node):
         log = self.get_logger()
         (log.info if record.ok else log.error)(f"lockstep: {record.verdict()}")
         return record.encode()
-
-
-def _duration(d) -> dict:
-    sec, nsec = divmod(d.nanoseconds, 1_000_000_000)
-    return {"sec": sec, "nsec": nsec}
 
 
 def main(args=None) -> int:
