@@ -27,6 +27,23 @@ DISCOVERY_SETTLE_S = 0.5
 _UNKNOWN = "_NODE_NAME_UNKNOWN_"
 
 
+class GraphStillness:
+    """Whether what discovery shows of a namespace (any comparable summary of its endpoints)
+    has stayed the same for :data:`DISCOVERY_SETTLE_S` (discovery trickles in slowly on a
+    loaded host: a fixed wait from the first sight would start too early there)."""
+
+    def __init__(self):
+        self.seen, self.since = None, None
+
+    def held(self, seen, now: float) -> bool:
+        if seen != self.seen:
+            self.seen, self.since = seen, now
+        return now - self.since >= DISCOVERY_SETTLE_S
+
+    def reset(self) -> None:
+        self.seen = self.since = None
+
+
 def other_publishers(node: Node, topics, own: int = 1) -> list[str]:
     """Nodes (``namespace/name``) publishing any of ``topics`` besides ``node``'s ``own``
     publishers of each (a node whose name is not discovered yet contains ``_UNKNOWN``)."""

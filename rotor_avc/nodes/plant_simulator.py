@@ -71,6 +71,7 @@ from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_
 from . import messages as m
 from . import taps
 from .lockstep import AnswerBook
+from .namespace_guard import GraphStillness
 from .plant_params import PARAMS
 from .plant_realtime import RealtimeMixin
 from .plant_startup import PlantStartupMixin
@@ -174,8 +175,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         self.t_created = time.monotonic()
         self.fault_log: list[str] = []
         self.waiting_text = ""
-        self.connected_since = None           # wall time since which every responder is seen
-        self.graph_seen = None                # and the namespace's endpoints stayed the same
+        self.stillness = GraphStillness()     # every responder seen, the namespace unchanged
         self._init_watch()
         self.create_timer(0.01, self._tick_waiting)
         self.create_timer(1.0, self._publish_diagnostics)

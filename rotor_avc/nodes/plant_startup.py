@@ -7,7 +7,6 @@ after ``discovery_timeout_s`` are said, and end the run or start it with the fau
 from __future__ import annotations
 
 from . import messages as m
-from .namespace_guard import DISCOVERY_SETTLE_S
 from .plant_params import EXIT_NODE_LEFT, EXIT_RECORDER_LOST
 
 
@@ -48,13 +47,10 @@ class PlantStartupMixin:
             # still for a moment -- no publisher or subscription of the namespace's sampled
             # topics appearing -- before sample 0, so that another plant on the namespace
             # is seen before this one steps
-            seen = self._graph_seen()
-            if seen != self.graph_seen:
-                self.graph_seen, self.connected_since = seen, now
-            if now - self.connected_since >= DISCOVERY_SETTLE_S:
+            if self.stillness.held(self._graph_seen(), now):
                 self._start()
             return
-        self.connected_since = self.graph_seen = None
+        self.stillness.reset()
         if now - self.t_created > self.p["discovery_timeout_s"]:
             missing = [f for f in self.driven if self.count_publishers(
                 m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]

@@ -76,7 +76,7 @@ from ..errors import RotorAvcError
 from ..output_files import EXIT_OUTPUT, OutputError
 from . import messages as m
 from . import taps
-from .namespace_guard import DISCOVERY_SETTLE_S, NamespaceGuard
+from .namespace_guard import GraphStillness, NamespaceGuard
 from .qos import offered_qos
 from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
 
@@ -150,8 +150,7 @@ class Recorder(Node):
         self.exit_requested = False
         self.exit_status = 0
         self.guard = NamespaceGuard(self, "records", self.p["namespace"])
-        self._seen_at = None                 # wall time the namespace's publishers last changed
-        self._graph_seen = None              # ... and what they were
+        self.stillness = GraphStillness()    # the namespace's publishers unchanged
         self._settled_once = False
         self.write_error: OutputError | None = None
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
@@ -213,10 +212,7 @@ class Recorder(Node):
                             if n.startswith(self.prefix)))
         if not any(n != self.progress_topic for n, _ in seen):
             return False
-        now = time.monotonic()
-        if seen != self._graph_seen:
-            self._graph_seen, self._seen_at = seen, now
-        self._settled_once = now - self._seen_at >= DISCOVERY_SETTLE_S
+        self._settled_once = self.stillness.held(seen, time.monotonic())
         return self._settled_once
 
     def _discover(self) -> None:
