@@ -17,6 +17,7 @@ from geometry_msgs.msg import AccelStamped, WrenchStamped
 from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.nodes import messages as m
 from rotor_avc.nodes.foot_controller import FootController
+from rotor_avc.nodes.namespace_guard import EXIT_NAMESPACE_TAKEN
 from rotor_avc.nodes.plant_simulator import PlantSimulator
 from rotor_avc.scenario import load_scenario
 
@@ -172,6 +173,68 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
     warnings = [st.message for st in lis.statuses("warn")]
     assert any("implausible measurement nan" in w and "safe output" in w for w in warnings)
     assert any("stale measurement" in w for w in warnings)
+
+
+class StrayAnswers:
+    """Answers on the actuator-force topics from a node that is not a controller of this plant:
+    what a plant that is not discovered yet makes its controllers send."""
+
+    def __init__(self, name: str, T: float):
+        self.node = rclpy.create_node(name)
+        self.T, self.k = T, 0
+        self.pubs = [self.node.create_publisher(WrenchStamped, m.foot_topic(f, "actuator_force"),
+                                                m.LOCKSTEP_QOS) for f in FEET]
+
+    def send(self, n: int = 1) -> None:
+        msg = WrenchStamped()
+        for _ in range(n):
+            self.k += 1
+            m.set_stamp(msg.header.stamp, m.sample_ns(self.k, self.T))
+            for pub in self.pubs:
+                pub.publish(msg)
+
+
+def test_answers_to_samples_never_sent_keep_the_plant_from_starting(tmp_path):
+    sc = scenario_file(tmp_path, "foot_mount_case3", 20.0, duration_s=0.2)
+    plant = PlantSimulator("plant_stray", parameter_overrides=params(
+        scenario=sc, discovery_timeout_s=3.0))
+    ctrls = [FootController(f"fc_stray_{f}", parameter_overrides=params(scenario=sc, foot_id=f))
+             for f in FEET]
+    stray = StrayAnswers("other_run", load_scenario(sc).sample_period_s)
+    stray.node.create_timer(0.005, stray.send)          # another run keeps being answered
+    ex = make_executor("events")
+    for n in [plant, stray.node, *ctrls]:
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: plant.finished, timeout_s=120)
+    finally:
+        ex.shutdown()
+        for n in [plant, stray.node, *ctrls]:
+            n.destroy_node()
+    assert not plant.started and plant.exit_status == EXIT_NAMESPACE_TAKEN
+    refusal = plant.fault_log[-1]
+    assert refusal.startswith("not starting: a plant not discovered yet") and "/other_run" in refusal
+
+
+def test_a_finished_runs_answers_do_not_keep_the_plant_from_starting(tmp_path):
+    """The controllers' transient-local history of an earlier run arrives once, then stops."""
+    sc = scenario_file(tmp_path, "foot_mount_case3", 20.0, duration_s=0.2)
+    stray = StrayAnswers("earlier_run", load_scenario(sc).sample_period_s)
+    stray.send(200)
+    plant = PlantSimulator("plant_after", parameter_overrides=params(scenario=sc))
+    ctrls = [FootController(f"fc_after_{f}", parameter_overrides=params(scenario=sc, foot_id=f))
+             for f in FEET]
+    ex = make_executor("events")
+    for n in [plant, stray.node, *ctrls]:
+        ex.add_node(n)
+    try:
+        assert spin_until(ex, lambda: sum(plant.received.values()) >= 3 * 200, timeout_s=60)
+        assert spin_until(ex, lambda: plant.finished, timeout_s=120)
+    finally:
+        ex.shutdown()
+        for n in [plant, stray.node, *ctrls]:
+            n.destroy_node()
+    assert plant.exit_status == 0 and plant.k == plant.n_steps, plant.fault_log
 
 
 @pytest.mark.parametrize("policy", ["hold", "zero"])

@@ -84,11 +84,15 @@ class NamespaceGuard:
         self.first_seen_s = self.first_seen_s or now
         if any(_UNKNOWN in o for o in others) and now - self.first_seen_s < DISCOVERY_SETTLE_S:
             return True                          # named in a moment
-        self.refusal = (f"not starting: {', '.join(others)} already {self.what} on namespace "
+        self.refuse(", ".join(others))
+        return True
+
+    def refuse(self, who: str) -> None:
+        """Refuse to start because ``who`` already does what this node would do."""
+        self.refusal = (f"not starting: {who} already {self.what} on namespace "
                         f"{self.namespace!r} (exit status {EXIT_NAMESPACE_TAKEN}) -- fix: one "
                         "plant and one recorder per namespace; stop the other run or give this "
                         "one its own namespace (parameter namespace) or ROS_DOMAIN_ID")
         self.node.get_logger().error(self.refusal)
         self.node.exit_status = EXIT_NAMESPACE_TAKEN
         self.node.exit_requested = True
-        return True

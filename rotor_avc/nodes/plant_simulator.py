@@ -176,6 +176,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         self.fault_log: list[str] = []
         self.waiting_text = ""
         self.stillness = GraphStillness()     # every responder seen, the namespace unchanged
+        self.stray_answers, self.stray_since_s, self.stray_last_s = 0, None, None
         self._init_watch()
         self.create_timer(0.01, self._tick_waiting)
         self.create_timer(1.0, self._publish_diagnostics)

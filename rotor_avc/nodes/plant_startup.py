@@ -14,11 +14,12 @@ class PlantStartupMixin:
     """Start-up of :class:`~rotor_avc.nodes.plant_simulator.PlantSimulator` (module docstring)."""
 
     def _graph_seen(self) -> tuple:
-        """What discovery has shown of the sampled and answer topics so far (endpoint counts)."""
+        """What discovery has shown of the sampled and answer topics so far (endpoint counts),
+        and the answers received (before sample 0 only another plant's samples are answered)."""
         topics = [t for t, _ in self.get_topic_names_and_types()
                   if t.startswith(m.topic("", self.p["namespace"]))]
-        return tuple((t, self.count_publishers(t), self.count_subscribers(t))
-                     for t in sorted(topics))
+        return (tuple((t, self.count_publishers(t), self.count_subscribers(t))
+                      for t in sorted(topics)), sum(self.received.values()))
 
     def _connected(self) -> bool:
         ns = self.p["namespace"]
@@ -40,13 +41,13 @@ class PlantStartupMixin:
 
     def _tick_start(self, now: float) -> None:
         """One tick before sample 0 (the plant's waiting timer)."""
-        if self._namespace_taken():
+        if self._namespace_taken(now):
             return
         if self._connected():
             # discovery is asynchronous (and slow on a loaded host): the graph must hold
             # still for a moment -- no publisher or subscription of the namespace's sampled
             # topics appearing -- before sample 0, so that another plant on the namespace
-            # is seen before this one steps
+            # is seen before this one steps (its answers keep it from holding still)
             if self.stillness.held(self._graph_seen(), now):
                 self._start()
             return

@@ -8,7 +8,8 @@ import time
 
 from ..bag.lockstep import LOCKSTEP_SUFFIX, LockstepRecord
 from . import messages as m
-from .namespace_guard import NamespaceGuard
+from .namespace_guard import (DISCOVERY_SETTLE_S, EXIT_NAMESPACE_TAKEN, NamespaceGuard,
+                              other_publishers)
 from .plant_params import EXIT_NODE_LEFT, EXIT_NOT_LOCKSTEP, WAIT_REPORT_S
 
 
@@ -42,17 +43,41 @@ class PlantWatchMixin:
                 f"{i.node_namespace.rstrip('/')}/{i.node_name}".lstrip("/")
                 for i in self.get_publishers_info_by_topic(self._answer_topic(name)))
 
-    # -- start-up: one plant per namespace ------------------------------------------------------
-    def _namespace_taken(self) -> bool:
-        """Another node publishes this plant's sampled topics: do not start (True); refused
-        once it is named (rotor_avc.nodes.namespace_guard)."""
-        topics = [pub.topic_name for pub, _, _ in self.meas] + [self.pub_joint.topic_name,
-                                                                 self.pub_obs.topic_name]
-        if not self.guard.taken(topics):
+    # -- one plant per namespace ----------------------------------------------------------------
+    def _sampled_topics(self) -> list[str]:
+        return [pub.topic_name for pub, _, _ in self.meas] + [self.pub_joint.topic_name,
+                                                               self.pub_obs.topic_name]
+
+    def _namespace_taken(self, now: float) -> bool:
+        """Another node publishes this plant's sampled topics, or another plant's answers
+        arrive: do not start (True); refused once it is named (rotor_avc.nodes.namespace_guard)
+        or the answers have flowed for ``discovery_timeout_s``."""
+        if not (self.guard.taken(self._sampled_topics()) or self._driven_by_another(now)):
             return False
         if self.guard.refusal and not self.finished:
             self.fault_log.append(self.guard.refusal)
             self.finished = True
+        return True
+
+    def _driven_by_another(self, now: float) -> bool:
+        """Answers keep arriving before sample 0: another plant (or a replay) drives the
+        responders, discovered or not. Refused (exit status 6) once they have flowed for
+        ``discovery_timeout_s`` without that plant being named; a burst that stops (the
+        history of a finished run's answers) is no reason."""
+        answers = sum(self.received.values())
+        if answers != self.stray_answers:
+            self.stray_answers, self.stray_last_s = answers, now
+            self.stray_since_s = self.stray_since_s or now
+        if self.stray_since_s is None:
+            return False
+        if now - self.stray_last_s > DISCOVERY_SETTLE_S:
+            self.stray_since_s = None            # the flow stopped
+            return False
+        if now - self.stray_since_s >= self.p["discovery_timeout_s"]:
+            nodes = sorted({f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+                            for t in self.received for i in self.get_publishers_info_by_topic(t)})
+            self.guard.refuse(f"a plant not discovered yet (answers to samples this plant never "
+                              f"sent keep arriving from {', '.join(nodes)})")
         return True
 
     # -- while a sample waits (fault_policy wait) -----------------------------------------------
@@ -73,6 +98,15 @@ class PlantWatchMixin:
             self._finish(complete=False)
             return
         if waited < self.p["controller_timeout_s"]:
+            return
+        others = other_publishers(self, self._sampled_topics())
+        if others:                         # discovered late: the answers are to its samples
+            self._fault(f"{', '.join(others)} also publishes the plant's topics on namespace "
+                        f"{self.p['namespace']!r}: its samples are answered, not this run's; "
+                        f"ending the run (exit status {EXIT_NAMESPACE_TAKEN}) -- fix: one plant "
+                        "per namespace")
+            self.exit_status = EXIT_NAMESPACE_TAKEN
+            self._finish(complete=False)
             return
         if self.wait_reported_s is None or now - self.wait_reported_s >= WAIT_REPORT_S:
             self.wait_reported_s = now
