@@ -12,9 +12,16 @@ growth per second of run and the ratio streamed / in-memory at the same length.
 windows of whole revolutions, streamed block by block), seed 000 case 3 at 1 kHz from 5 to
 60 Hz over the run's length, each simulated and written by ``rotor-avc simulate`` (streamed).
 
+``--mapped``: those run-ups recorded as a rig's drivers would and compared through a mapping
+(``--config``/``--map``): a tacho pulse per revolution, the foot accelerations and bearing
+velocities as stamped messages with 20 us stamp jitter, 400 us latency plus an exponential tail
+and 1.2 % of the samples dropped (half in bursts of 5-60), written block by block from the
+simulated bag; streamed (the default for a recording without a test force) against
+``--in-memory`` (the whole recording on a resampling grid).
+
 Run: ``python bench/compare_memory.py`` (2, 10, 40 s), ``--long`` (2, 120, 600, 3600 s; the
 in-memory baseline only up to 120 s: beyond, it needs about 10 MB per second of run), or
-``--lengths 2 20``; each with ``--runup``.
+``--lengths 2 20``; each with ``--runup`` or ``--mapped``.
 """
 from __future__ import annotations
 
@@ -28,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rotor_avc.bag.topics import Stream
 from rotor_avc.bag.writer import BagWriter
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import run_streams
@@ -38,8 +46,12 @@ IN_MEMORY_UP_TO_S = 120.0
 CHILD = """
 import json, resource, sys, time
 from rotor_avc.compare.comparison import compare_bag
+from rotor_avc.compare.mapped_stream import compare_mapped
 t0 = time.perf_counter()
-comp = compare_bag(sys.argv[1], in_memory=sys.argv[2] == "memory")
+if len(sys.argv) > 3:
+    comp = compare_mapped(sys.argv[1], sys.argv[3], sys.argv[4], in_memory=sys.argv[2] == "memory")
+else:
+    comp = compare_bag(sys.argv[1], in_memory=sys.argv[2] == "memory")
 print(json.dumps({"time_s": time.perf_counter() - t0, "verdict": comp.verdict,
                   "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
 """
@@ -80,9 +92,70 @@ def write_runup(path: Path, duration_s: float) -> Path:
     return path
 
 
-def measure(path: Path, mode: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], capture_output=True,
-                         text=True, check=True)
+#: the rig: sensor rates (divide the 1 kHz run), stamp jitter, latency and its tail, drops
+RIG = {"foot_DL_az": 1000.0, "foot_DR_az": 1000.0, "foot_NL_az": 1000.0, "bearing_D_vz": 500.0,
+       "bearing_N_vz": 500.0}
+JITTER_S, LATENCY_S, TAIL_S, DROPPED = 20e-6, 400e-6, 300e-6, 0.012
+
+
+def _rig_stamps(t, rng):
+    """(header stamps, log times) in ns of samples at ``t`` s, and the samples kept."""
+    keep = rng.random(t.size) >= 0.5 * DROPPED
+    budget = int(0.5 * DROPPED * t.size)
+    while budget > 0:
+        length = int(rng.integers(5, 61))
+        start = int(rng.integers(0, max(1, t.size - length)))
+        keep[start:start + length] = False
+        budget -= length
+    stamp = np.round((t + JITTER_S * rng.standard_normal(t.size)) * 1e9).astype(np.int64)
+    log = stamp + np.round((LATENCY_S + rng.exponential(TAIL_S, t.size)) * 1e9).astype(np.int64)
+    return stamp[keep], log[keep], keep
+
+
+def _stamped(topic: str, msg_type: str, stamp, log, fields: dict) -> Stream:
+    order = np.argsort(log, kind="stable")
+    header = "" if msg_type == "std_msgs/msg/Header" else "header."
+    template = ({"frame_id": topic[1:]} if not header else {"header": {"frame_id": topic[1:]}})
+    return Stream(topic, msg_type, log[order], template,
+                  {f"{header}stamp.sec": (stamp // 1_000_000_000)[order],
+                   f"{header}stamp.nanosec": (stamp % 1_000_000_000)[order],
+                   **{k: v[order] for k, v in fields.items()}})
+
+
+def write_mapped(path: Path, duration_s: float) -> tuple[Path, Path, Path]:
+    """The run-up of :func:`write_runup` as a rig records it (module docstring), written block
+    by block: ``(bag, config, map)``."""
+    from rotor_avc.compare.bag_source import BagSource
+    simulated = write_runup(path.with_name(path.stem + "_sim.mcap"), duration_s)
+    rng = np.random.default_rng(7)
+    turns = 0
+    with BagWriter(path, None) as bag:
+        for t, angle, _, channels, _ in BagSource(simulated).blocks():
+            streams = []
+            for name, rate in RIG.items():
+                step = int(round(1000.0 / rate))
+                stamp, log, keep = _rig_stamps(t[::step], rng)
+                streams.append(_stamped(f"/rig/{name}", "geometry_msgs/msg/PointStamped", stamp,
+                                        log, {"point.z": channels[name][::step][keep]}))
+            marks = 2 * np.pi * np.arange(turns, int(angle[-1] // (2 * np.pi)) + 1)
+            marks = marks[marks >= angle[0]]
+            turns += marks.size
+            stamp, log, keep = _rig_stamps(np.interp(marks, angle, t), rng)
+            streams.append(_stamped("/rig/tacho", "std_msgs/msg/Header", stamp, log, {}))
+            bag.write_streams(streams)
+    simulated.unlink()
+    mapping = path.with_suffix(".map.yaml")
+    mapping.write_text(json.dumps({
+        "channels": {name: {"topic": f"/rig/{name}", "field": "point.z"} for name in RIG},
+        "shaft": {"source": "pulse", "topic": "/rig/tacho"},
+        "unbalance": {"static": {"magnitude": 1.0e-2, "phase_deg": 0.0}}}))
+    return path, simulated.with_suffix(".yaml"), mapping
+
+
+def measure(path, mode: str) -> dict:
+    args = [str(p) for p in (path if isinstance(path, tuple) else (path,))]
+    out = subprocess.run([sys.executable, "-c", CHILD, args[0], mode, *args[1:]],
+                         capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -91,18 +164,21 @@ def main() -> int:
     parser.add_argument("--long", action="store_true", help="2 s to 1 h")
     parser.add_argument("--lengths", type=float, nargs="+", help="run lengths in s")
     parser.add_argument("--runup", action="store_true", help="run-ups instead of a held speed")
+    parser.add_argument("--mapped", action="store_true",
+                        help="run-ups recorded as a rig's drivers would, compared via a mapping")
     args = parser.parse_args()
-    write = write_runup if args.runup else write_recording
+    write = write_mapped if args.mapped else write_runup if args.runup else write_recording
     lengths = args.lengths or ([2.0, 120.0, 600.0, 3600.0] if args.long else [2.0, 10.0, 40.0])
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         for length in lengths:
             path = write(Path(folder) / f"run_{length:g}s.mcap", length)
-            row = {"length_s": length, "bag_mb": path.stat().st_size / 2 ** 20,
+            bag = path[0] if isinstance(path, tuple) else path
+            row = {"length_s": length, "bag_mb": bag.stat().st_size / 2 ** 20,
                    "streamed": measure(path, "streamed")}
             if length <= IN_MEMORY_UP_TO_S:
                 row["in_memory"] = measure(path, "memory")
-            path.unlink()
+            bag.unlink()
             rows.append(row)
             s, m = row["streamed"], row.get("in_memory")
             ratio = (f"{s['peak_mb'] / m['peak_mb']:.2f} memory, "

@@ -39,7 +39,7 @@ KINDS = {
                      "compare_verdicts", "control_discretize", "control_filter", "control_limits",
                      "control_sampled_loop", "design_check", "foxglove_decode", "frf_estimate",
                      "harmonic_dynamic", "harmonic_laws", "harmonic_machine", "modal_frf",
-                     "gapped_tracking", "order_tracking", "rig_recordings",
+                     "gapped_tracking", "order_tracking", "rig_recordings", "stamp_stream",
                      "rosbag2_corpus", "runup", "sim_loop", "sim_stepper",
                      "sleeve_bearing_control", "sleeve_bearing_sim",
                      "sleeve_bearing_whirl_iteration", "stability_time_domain", "studies",

@@ -15,12 +15,14 @@ Broadband with burst gaps gives an estimate averaged between the gaps (never exi
 """
 import csv
 import json
+import re
 
 import numpy as np
 import pytest
 import yaml
 
 from rotor_avc.cli import main
+from rotor_avc.compare.mapped_stream import compare_mapped
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.scenario import scenario_from_config
 
@@ -218,6 +220,33 @@ def test_the_resampling_grid_is_checked_against_the_memory_limit(stepped, tmp_pa
     _, _, bag, config, mapping = stepped
     monkeypatch.setenv("ROTOR_AVC_MAX_MEMORY_GB", "0.001")
     status = main(["compare", str(bag), "--config", str(config), "--map", str(mapping),
-                   "--out", str(tmp_path / "report")])
+                   "--out", str(tmp_path / "report"), "--in-memory"])
     err = capsys.readouterr().err
     assert status == 2 and "resampling grid" in err and "--max-memory-gb" in err
+
+
+@pytest.mark.parametrize("stepped", [29], indirect=True)
+@pytest.mark.parametrize("kind", ["stepped", "runup"])
+def test_the_streamed_comparison_equals_the_one_read_whole(stepped, tmp_path, kind):
+    """Read chunk by chunk (each channel fitted as it comes, one window kept) or whole: the same
+    windows, speeds and 1x phasors, and the same stamp statistics per channel."""
+    if kind == "stepped":
+        _, _, bag, config, mapping = stepped
+    else:
+        ramp = {"type": "ramp", "start_hz": 6.0, "stop_hz": 30.0, "duration_s": 6.0}
+        _, bag, config, mapping = _record(tmp_path / "runup", 5, {"speed": ramp})
+    streamed = compare_mapped(bag, config, mapping)
+    whole = compare_mapped(bag, config, mapping, in_memory=True)
+    assert type(streamed.run).__name__ == "MappedStream"
+    a, b = streamed.one_x, whole.one_x
+    assert a.method == b.method and a.speed_rad_s.size >= 4
+    np.testing.assert_allclose(a.speed_rad_s, b.speed_rad_s, rtol=1e-9)
+    for name in a.measured:
+        np.testing.assert_allclose(a.measured[name], b.measured[name], rtol=1e-6)
+    # the rate is 1 / the median stamp interval: streamed, of the first 4096 intervals
+    rate = re.compile(r" at ([\d.]+) Hz, ")
+    notes = [sorted(n for n in c.notes if " samples at " in n) for c in (streamed, whole)]
+    assert notes[0] and [rate.sub(" ", n) for n in notes[0]] == [rate.sub(" ", n) for n in notes[1]]
+    np.testing.assert_allclose([float(rate.search(n).group(1)) for n in notes[0]],
+                               [float(rate.search(n).group(1)) for n in notes[1]], rtol=1e-3)
+    assert streamed.verdict == whole.verdict

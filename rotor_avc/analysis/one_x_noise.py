@@ -4,23 +4,13 @@ Over a window of whole revolutions the 1x phasor is the least-squares fit of
 ``y = Re{Y e^{j theta}} + c`` (rotor_avc.analysis.order_tracking). With white residual noise of
 variance ``s^2`` over ``N`` samples each quadrature component of ``Y`` has the standard error
 ``s sqrt(2 / N)``, so the magnitude's relative standard error is ``eps = s sqrt(2 / N) / |Y|``
-and a magnitude check of tolerance ``tol`` dB can be decided only when its
+(``sigma / |Y|`` of :func:`rotor_avc.analysis.order_tracking.fit`), and a magnitude check
+of tolerance ``tol`` dB can be decided only when its
 ``k``-sigma interval ``20 log10(1 + k eps)`` stays below ``tol``.
 """
 from __future__ import annotations
 
 import numpy as np
-
-from .order_tracking import fit
-
-
-def one_x_random_error(angle_rad, values) -> tuple[complex, float]:
-    """``(Y, eps)``: the 1x phasor of ``values`` over ``angle_rad`` (least squares with an
-    offset, :func:`rotor_avc.analysis.order_tracking.fit`) and its magnitude's relative standard
-    error from the residual."""
-    phasor, sigma = fit(angle_rad, values)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return complex(phasor), float(sigma / abs(phasor))
 
 
 def decidable(eps: float, tol_db: float, sigmas: float = 2.0) -> tuple[bool, float]:

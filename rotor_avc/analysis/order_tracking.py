@@ -252,56 +252,8 @@ class ShaftAngle:
         return np.interp(angle_rad, self.knots_rad, self.knots_s)
 
 
-def dwell_windows(shaft: ShaftAngle, dwells_s, settle_fraction: float = 0.5,
-                  min_revolutions: int = 4) -> list[tuple[float, float, int]]:
-    """``(t0, t1, n)`` per constant-speed dwell ``(start s, end s)``: the whole revolutions
-    ending at the dwell's end, after its first ``settle_fraction``, when at least
-    ``min_revolutions``."""
-    out = []
-    for a, b in dwells_s:
-        first = a + settle_fraction * (b - a)
-        end = float(shaft.angle(b))
-        n = int(np.floor((end - float(shaft.angle(first))) / TWO_PI + 1e-9))
-        if n >= min_revolutions:
-            out.append((float(shaft.time(end - TWO_PI * n)), float(b), n))
-    return out
-
-
-def revolution_windows(shaft: ShaftAngle, start_s: float, stop_s: float,
-                       revolutions: int) -> list[tuple[float, float, int]]:
-    """Consecutive windows of ``revolutions`` whole revolutions from ``start_s`` to ``stop_s``
-    (a run-up or run-down at positive speed)."""
-    if revolutions < 1:
-        raise ModelError("order tracking: revolutions per window must be >= 1")
-    a0, a1 = float(shaft.angle(start_s)), float(shaft.angle(stop_s))
-    marks = a0 + TWO_PI * revolutions * np.arange(int((a1 - a0) / (TWO_PI * revolutions)) + 1)
-    times = shaft.time(marks)
-    return [(float(t0), float(t1), revolutions) for t0, t1 in zip(times[:-1], times[1:])]
-
-
-def track_windows(shaft: ShaftAngle, windows, channels: Mapping, unbalance=1.0, *,
-                  min_samples_per_revolution: float = 4.0) -> tuple[OrderTrack, list[str]]:
-    """1x phasors over shaft-defined windows ``(t0, t1, n)`` (``n`` whole revolutions from
-    ``t0`` to ``t1``) of channels each sampled at its own times (``channels``: name ->
-    ``(stamps s, values)``, gaps allowed): each channel's samples inside the window, at the
-    shaft angle of their own stamps, fitted by :func:`fit`; speed ``2 pi n / (t1 - t0)``.
-    A window where a channel has fewer than ``min_samples_per_revolution * n`` samples is left
-    out: ``(track, notes)`` with a note per window left out."""
-    u = _unbalance(unbalance)
-    rows, notes = [], []
-    for t0, t1, n in windows:
-        row = _window_row(shaft, t0, t1, n, channels, min_samples_per_revolution)
-        if isinstance(row, str):
-            notes.append(row)
-        else:
-            rows.append(row)
-    if not rows:
-        raise ModelError("order tracking: no window has enough samples of every channel; "
-                         "the recording's gaps cover the dwells")
-    return _from_rows(rows, list(channels), u), notes
-
-
-def _unbalance(unbalance) -> complex:
+def check_unbalance(unbalance) -> complex:
+    """The run's complex unbalance amplitude, refused when zero or not finite."""
     u = complex(unbalance)
     if u == 0 or not np.isfinite(u):
         raise ModelError(f"order tracking: the run's unbalance amplitude is {u}; "
@@ -309,28 +261,28 @@ def _unbalance(unbalance) -> complex:
     return u
 
 
-def _window_row(shaft: ShaftAngle, t0: float, t1: float, n: int, channels: Mapping,
-                min_samples_per_revolution: float):
-    """One window's ``(speed, time, n, samples, phasors, sigmas, drifts)`` (per channel, not
-    yet divided by the unbalance), or the note why it is left out."""
+def window_fit(shaft: ShaftAngle, t, y, n: int) -> tuple[complex, float, float]:
+    """``(phasor, sigma, drift)`` of one channel's samples ``(t, y)`` over a window of ``n``
+    whole revolutions, at the shaft angle of their own stamps (:func:`fit`, :func:`_drift`;
+    not yet divided by the unbalance)."""
+    theta = shaft.angle(t)
+    whole, err = fit(theta, y)
+    return complex(whole), float(err), _drift(theta, y, whole, n // 2)
+
+
+def _window_row(shaft: ShaftAngle, t0: float, t1: float, n: int, channels: Mapping):
+    """One window's ``(speed, time, n, samples, phasors, sigmas, drifts)`` of channels on
+    one time base (:func:`track_from_rows`)."""
     cuts = {name: np.searchsorted(t, [t0, t1]) for name, (t, _) in channels.items()}
-    short = [name for name, (i, j) in cuts.items() if j - i < min_samples_per_revolution * n]
-    if short:
-        return (f"1x window {t0:.4g}-{t1:.4g} s left out: " + ", ".join(short)
-                + f" have fewer than {min_samples_per_revolution:g} samples per revolution there")
-    phasors, sigmas, drifts = [], [], []
-    for name, (i, j) in cuts.items():
-        t, y = channels[name][0][i:j], channels[name][1][i:j]
-        theta = shaft.angle(t)
-        whole, err = fit(theta, y)
-        phasors.append(complex(whole))
-        sigmas.append(float(err))
-        drifts.append(_drift(theta, y, whole, n // 2))
+    fits = [window_fit(shaft, channels[name][0][i:j], channels[name][1][i:j], n)
+            for name, (i, j) in cuts.items()]
+    phasors, sigmas, drifts = (list(c) for c in zip(*fits))
     return (TWO_PI * n / (t1 - t0), 0.5 * (t0 + t1), n, min(j - i for i, j in cuts.values()),
             phasors, sigmas, drifts)
 
 
-def _from_rows(rows, names, u: complex) -> OrderTrack:
+def track_from_rows(rows, names, u: complex) -> OrderTrack:
+    """The track of window rows ``(speed, time, n, samples, phasors, sigmas, drifts)``."""
     speed, time, revs, samples, phasors, sigmas, drifts = (list(c) for c in zip(*rows))
     phasors = np.array(phasors, complex) / u
     sigmas = np.array(sigmas, float) / abs(u)
@@ -357,13 +309,13 @@ def run_up_stream(blocks, names, unbalance=1.0, *, revolutions: int = 8) -> Orde
     """1x phasors of a run-up or run-down over consecutive windows of ``revolutions`` whole
     revolutions, from blocks of samples as they come (``(time_s, angle_rad, speed_rad_s,
     channels, ...)`` each; samples at zero or negative speed are skipped): a window is fitted
-    (:func:`track_windows`) as soon as the angle passes its end, and only the samples of the
+    (:func:`window_fit`) as soon as the angle passes its end, and only the samples of the
     window under way are kept, so the memory is one window and one block whatever the run's
     length. The first window starts at the first turning sample."""
     if revolutions < 1:
         raise ModelError("order tracking: revolutions per window must be >= 1")
     span = TWO_PI * revolutions
-    u = _unbalance(unbalance)
+    u = check_unbalance(unbalance)
     buf_t, buf_theta, buf_y = np.zeros(0), np.zeros(0), np.zeros((0, len(names)))
     mark, rows = None, []
     for block in blocks:
@@ -383,11 +335,11 @@ def run_up_stream(blocks, names, unbalance=1.0, *, revolutions: int = 8) -> Orde
             shaft = ShaftAngle(buf_t, buf_theta)
             t0, t1 = float(shaft.time(mark)), float(shaft.time(mark + span))
             rows.append(_window_row(shaft, t0, t1, revolutions,
-                                    {n: (buf_t, buf_y[:, i]) for i, n in enumerate(names)}, 0.0))
+                                    {n: (buf_t, buf_y[:, i]) for i, n in enumerate(names)}))
             keep = max(int(np.searchsorted(buf_t, t1)) - 1, 0)   # the sample before t1 too
             buf_t, buf_theta, buf_y = buf_t[keep:], buf_theta[keep:], buf_y[keep:]
             mark += span
     if not rows:
         raise ModelError(f"order tracking: the record covers fewer than {revolutions} "
                          "revolutions; use fewer revolutions per window")
-    return _from_rows(rows, list(names), u)
+    return track_from_rows(rows, list(names), u)

@@ -58,16 +58,19 @@ def usable_samples(values) -> tuple[np.ndarray, int]:
     return ok, int(ok.size - ok.sum())
 
 
-def clock_steps(stamps_s, log_s) -> list[tuple[float, float]]:
+def clock_steps(stamps_s, log_s, start: int = 0, stop: int | None = None
+                ) -> list[tuple[float, float]]:
     """Steps of a sensor clock against the recorder's, ``[(log time s, step s)]``, from the
     stamps and log times in arrival order: where the offset ``stamp - log`` changes by more than
     :data:`CLOCK_STEP_S` between the medians of the :data:`CLOCK_STEP_PERSISTENCE` samples
     before and after (a transport latency spike or a short recorder stall moves single samples
-    and does not persist; an NTP step, a clock reset or a time-zone jump does)."""
+    and does not persist; an NTP step, a clock reset or a time-zone jump does). Only steps at
+    samples ``start`` to ``stop`` (in arrival order) are looked for."""
     order = np.argsort(np.asarray(log_s, dtype=float), kind="stable")
     log = np.asarray(log_s, dtype=float)[order]
     offset = np.asarray(stamps_s, dtype=float)[order] - log
     jumps = np.flatnonzero(np.abs(np.diff(offset)) > CLOCK_STEP_S) + 1
+    jumps = jumps[(jumps >= start) & (jumps < (log.size if stop is None else stop))]
     steps, n, last = [], CLOCK_STEP_PERSISTENCE, -CLOCK_STEP_PERSISTENCE
     for k in jumps:
         before = np.median(offset[max(last, k - n, 0):k])

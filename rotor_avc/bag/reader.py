@@ -39,6 +39,8 @@ from .msgdefs import MsgDefError, parse_schema
 from .records import RecordError, chunk_messages, open_chunk
 from .topics import labels_of
 
+#: messages decoded at once by :meth:`BagReader.series_chunks` from a file without indexes
+SERIES_BATCH = 65536
 _RECOVER_FIX = ("finish it with `rotor-avc bag recover BAG` (recover_bag in Python, or "
                 "`mcap recover`): every intact chunk is kept")
 #: what a damaged record raises inside mcap, zstandard, lz4 (RuntimeError) and struct
@@ -275,19 +277,78 @@ class BagReader:
     # -- time series -----------------------------------------------------------------------
     def series(self, topic: str) -> TopicSeries:
         """All messages of a topic as numpy arrays (see :class:`TopicSeries`)."""
-        codec = self.codec(topic)
+        self._require_messages(topic)
+        times, rows = self._indexed_rows(self._channel_id(topic))
+        series = None if rows is None else self._rows_series(topic, times, rows)
+        if series is not None:
+            return series
+        messages = list(self.raw_messages(topic))
+        return self._messages_series(topic, [m.time_ns for m in messages],
+                                     [m.data for m in messages])
+
+    def series_chunks(self, topic: str) -> Iterator[TopicSeries]:
+        """A topic's messages as :class:`TopicSeries` one chunk at a time (in the order of the
+        chunks' start times, each in log-time order): :meth:`series` in the memory of one
+        chunk. A file without message indexes is read in runs of :data:`SERIES_BATCH`
+        messages."""
+        self._require_messages(topic)
         cid = self._channel_id(topic)
+        if not self.has_message_indexes:
+            batch = []
+            for m in self.raw_messages(topic):
+                batch.append(m)
+                if len(batch) == SERIES_BATCH:
+                    yield self._messages_series(topic, [m.time_ns for m in batch],
+                                                [m.data for m in batch])
+                    batch = []
+            if batch:
+                yield self._messages_series(topic, [m.time_ns for m in batch],
+                                            [m.data for m in batch])
+            return
+        for ci in sorted(self._summary.chunk_indexes, key=lambda c: c.message_start_time):
+            if cid not in ci.message_index_offsets:
+                continue
+            records = self._chunk_records(ci)
+            times, rows = self._chunk_rows(ci, cid, records)
+            order = np.argsort(times, kind="stable")
+            series = None if rows is None else self._rows_series(topic, times[order],
+                                                                 rows[order])
+            if series is None:
+                payloads = self._chunk_payloads(ci, cid, records)
+                series = self._messages_series(topic, times[order],
+                                               [payloads[i] for i in order])
+            yield series
+
+    def _require_messages(self, topic: str) -> None:
+        self.codec(topic)
         if self.topics[topic].count == 0:
             raise BagError(self.path, f"topic {topic} has no messages",
                            fix="check that the run published it")
-        times, rows = self._indexed_rows(cid)
-        if rows is not None:
-            first = self._decode(topic, rows[0].tobytes())
-            layout = codec.layout(rows[0].tobytes())
-            if layout.matches(rows):
-                return TopicSeries(topic, codec.type_name, times, layout.decode(rows),
-                                   labels_of(first))
-        return self._series_by_message(topic, codec.type_name)
+
+    def _rows_series(self, topic: str, times, rows) -> TopicSeries | None:
+        """Fixed-size CDR rows decoded with one numpy copy (None: they do not share one
+        structure)."""
+        codec = self.codec(topic)
+        layout = codec.layout(rows[0].tobytes())
+        if not layout.matches(rows):
+            return None
+        return TopicSeries(topic, codec.type_name, times, layout.decode(rows),
+                           labels_of(self._decode(topic, rows[0].tobytes())))
+
+    def _messages_series(self, topic: str, times, payloads) -> TopicSeries:
+        """Messages decoded one by one; the numeric fields every message has in one shape."""
+        flat, labels = [], []
+        for data in payloads:
+            msg = self._decode(topic, data)
+            flat.append(dict(_numeric_leaves(msg, "")))
+            labels = labels or labels_of(msg)
+        common = set(flat[0]).intersection(*flat[1:])
+        fields = {}
+        for path in flat[0]:
+            if path in common and len({np.shape(f[path]) for f in flat}) == 1:
+                fields[path] = np.array([f[path] for f in flat])
+        return TopicSeries(topic, self.codec(topic).type_name, np.asarray(times, np.int64),
+                           fields, labels)
 
     def log_times(self, topic: str) -> np.ndarray:
         """Log times (ns) of a topic's messages, sorted: from the message indexes without
@@ -358,6 +419,18 @@ class BagReader:
                            fix=_RECOVER_FIX) from None
         return entries[:, 0].astype(np.int64), rows
 
+    def _chunk_payloads(self, ci, cid: int, records: np.ndarray) -> list[bytes]:
+        """The CDR payloads of channel ``cid`` in one chunk, in message-index order."""
+        out = []
+        for offset in self._message_index(ci.message_index_offsets[cid])[:, 1].astype(np.int64):
+            length = int(records[offset + 1:offset + 9].copy().view("<u8")[0])
+            end = offset + 9 + length
+            if end > records.size:
+                raise BagError(self.path, "damaged message index (offsets outside the chunk)",
+                               fix=_RECOVER_FIX)
+            out.append(records[offset + MESSAGE_HEADER.size:end].tobytes())
+        return out
+
     def chunk_rows(self, topics):
         """The messages of ``topics`` chunk by chunk, in the order of the chunks' start times:
         ``(later_ns, {topic: (log times, (n, size) payload bytes)})`` per chunk, ``later_ns``
@@ -394,20 +467,6 @@ class BagReader:
         except ValueError as exc:
             raise BagError(self.path, f"damaged chunk ({exc})", fix=_RECOVER_FIX) from None
         return np.frombuffer(chunk.data, np.uint8)
-
-    def _series_by_message(self, topic: str, msg_type: str) -> TopicSeries:
-        times, flat = [], []
-        labels: list[str] = []
-        for m in self.messages(topic):
-            times.append(m.time_ns)
-            flat.append(dict(_numeric_leaves(m.data, "")))
-            labels = labels or labels_of(m.data)
-        common = set(flat[0]).intersection(*flat[1:])
-        fields = {}
-        for path in flat[0]:
-            if path in common and len({np.shape(f[path]) for f in flat}) == 1:
-                fields[path] = np.array([f[path] for f in flat])
-        return TopicSeries(topic, msg_type, np.asarray(times, np.int64), fields, labels)
 
     # -- closing ---------------------------------------------------------------------------
     def close(self) -> None:

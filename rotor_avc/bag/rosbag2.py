@@ -216,6 +216,14 @@ class DirectoryBag:
         fields = {k: np.concatenate([p.fields[k] for p in parts])[order] for k in common}
         return TopicSeries(topic, parts[0].msg_type, time_ns[order], fields, parts[0].labels)
 
+    def series_chunks(self, topic: str) -> Iterator[TopicSeries]:
+        """BagReader.series_chunks over every file, in the order of the chunks' first times."""
+        streams = [r.series_chunks(topic) for r in self._with(topic) if r.topics[topic].count]
+        if not streams:
+            raise BagError(self.path, f"topic {topic} has no messages",
+                           fix="check that the run published it")
+        yield from heapq.merge(*streams, key=lambda part: int(part.time_ns[0]))
+
     def log_times(self, topic: str) -> np.ndarray:
         return np.sort(np.concatenate([r.log_times(topic) for r in self._with(topic)]))
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..compare.checks import EXIT_NO_VERDICT
 from ..compare.comparison import compare_bag
-from ..compare.mapped_run import compare_mapped
+from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
 from .common import output_folder
@@ -22,9 +22,11 @@ HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-
         "counts equal across the plant's topics, published = recorded), 4 for a corrupted bag. "
         "A recording of any machine (a .mcap file or a rosbag2 directory, e.g. from `ros2 bag "
         "record`) compares with --config MACHINE.yaml --map MAP.yaml: the mapping says which "
-        "topic and field is which model signal; the channels are resampled onto the "
-        "configuration's sample grid and the report lists rate, jitter and dropouts per channel, "
-        "the shaft's pulses and dwells and the coherence per output.")
+        "topic and field is which model signal; each channel's 1x is fitted at its own stamps "
+        "over windows of whole shaft revolutions (streamed chunk by chunk; with a test force "
+        "the channels are resampled onto the configuration's sample grid for the broadband "
+        "estimate) and the report lists rate, jitter and dropouts per channel, the shaft's "
+        "pulses and dwells and the coherence per output.")
 EXAMPLE = ("rotor-avc compare bags/reference/case3_stepped.mcap --out out/compare_case3\n"
            "  rotor-avc compare recording/ --config machine.yaml --map sensors.yaml --out out/real")
 
@@ -42,7 +44,8 @@ def add_arguments(p) -> None:
                    help="report folder (created; default: out/compare_<bag name>)")
     p.add_argument("--in-memory", action="store_true",
                    help="read the whole bag into memory first instead of streaming it dwell by "
-                        "dwell (same result; memory grows with the recording)")
+                        "dwell (same result; memory grows with the recording); a mapped "
+                        "recording is then resampled onto the grid")
 
 
 def run(args) -> int:
@@ -51,7 +54,7 @@ def run(args) -> int:
                           fix="give --config MACHINE.yaml and --map MAP.yaml, or neither for a "
                               "bag this package wrote")
     comp = (compare_bag(args.bag, in_memory=args.in_memory) if args.map is None
-            else compare_mapped(args.bag, args.config, args.map))
+            else compare_mapped(args.bag, args.config, args.map, args.in_memory))
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
     return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)

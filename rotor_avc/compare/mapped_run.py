@@ -23,8 +23,9 @@ scenario from a machine configuration, the signals from a bag through a mapping 
   values), the shaft (pulses, missing and duplicate pulses, dwells), the resampling method and
   its loss, and the 1x points whose
   noise (:mod:`rotor_avc.analysis.one_x_noise`, over the dwell's second half: a short dwell has
-  few samples) is too large for a verdict. :func:`compare_mapped` adds per output the coherence of the broadband estimate
-  and the fraction of H1 inside its +-2 sigma band around the sampled-loop model.
+  few samples) is too large for a verdict. :func:`band_notes` adds per output the coherence of
+  the broadband estimate and the fraction of H1 inside its +-2 sigma band around the
+  sampled-loop model.
 """
 from __future__ import annotations
 
@@ -34,9 +35,9 @@ import numpy as np
 
 from ..analysis import resampling as R
 from ..analysis.frf_estimate import h1_random_error
-from ..analysis.order_tracking import (ShaftAngle, dwell_windows, revolution_windows,
-                                       track_windows)
-from ..analysis.one_x_noise import decidable, one_x_random_error
+from ..analysis.order_tracking import ShaftAngle
+from ..analysis.window_tracking import dwell_windows, revolution_windows, track_windows
+from ..analysis.one_x_noise import decidable
 from ..bag import BagError
 from ..bag.rosbag2 import open_bag
 from ..config import find_config, load_yaml
@@ -70,27 +71,28 @@ def _stamps_ns(series, stamp: str, where: str, source: str) -> np.ndarray:
                       fix="set `stamp: log` to use the bag's log times", source=source)
 
 
+def clock_error(topic: str, where: str, source: str, step, count: int,
+                start_s: float) -> ConfigError:
+    """The refusal of a sensor clock that steps against the recorder's (module docstring):
+    ``step`` the first ``(log time s, step s)``, ``count`` the steps found."""
+    log_s, step_s = step
+    return ConfigError(f"{where}.stamp", f"the header stamps of {topic} step by {step_s:+.6g} s "
+                       f"against the bag's log time at {log_s - start_s:.6g} s into the "
+                       f"recording ({count} clock step(s): NTP, a clock reset); samples on "
+                       "both sides cannot share one time base",
+                       fix=f"set `stamp: log` for this channel, or cut the recording at "
+                           f"{log_s - start_s:.6g} s", source=source)
+
+
 def _check_clock(series, stamps_ns, where: str, source: str) -> None:
-    """Refuse a sensor clock that steps against the recorder's (module docstring)."""
     steps = R.clock_steps(stamps_ns * 1e-9, series.time_ns * 1e-9)
     if steps:
-        log_s, step_s = steps[0]
-        start_s = float(series.time_ns.min()) * 1e-9
-        raise ConfigError(f"{where}.stamp", f"the header stamps of {series.topic} step by "
-                          f"{step_s:+.6g} s against the bag's log time at {log_s - start_s:.6g} s "
-                          f"into the recording ({len(steps)} clock step(s): NTP, a clock reset); "
-                          "samples on both sides cannot share one time base",
-                          fix=f"set `stamp: log` for this channel, or cut the recording at "
-                              f"{log_s - start_s:.6g} s", source=source)
+        raise clock_error(series.topic, where, source, steps[0], len(steps),
+                          float(series.time_ns.min()) * 1e-9)
 
 
-def _read_field(bag, sig, where: str, source: str):
-    """(stamps ns, SI values, samples excluded as non-finite or overflowing) of one mapped
-    field."""
-    if sig.topic not in bag.topics:
-        raise ConfigError(f"{where}.topic", f"no topic {sig.topic} in {bag.path}",
-                          fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
-    series = bag.series(sig.topic)
+def field_values(series, sig, where: str, source: str) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps ns, values as recorded) of one mapped field of a topic's series."""
     try:
         values = np.asarray(series[sig.field], dtype=float)
     except BagError as exc:
@@ -99,22 +101,38 @@ def _read_field(bag, sig, where: str, source: str):
     if values.ndim != 1:
         raise ConfigError(f"{where}.field", f"{sig.field!r} of {sig.topic} is an array",
                           fix=f"pick one element, e.g. {sig.field}[0]", source=source)
-    stamps = _stamps_ns(series, sig.stamp, where, source)
+    return _stamps_ns(series, sig.stamp, where, source), values
+
+
+def require_topic(bag, topic: str, where: str, source: str) -> None:
+    if topic not in bag.topics:
+        raise ConfigError(f"{where}.topic", f"no topic {topic} in {bag.path}",
+                          fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
+
+
+def too_few(sig, where: str, source: str, finite: int, total: int) -> ConfigError:
+    return ConfigError(f"{where}.field", f"{sig.field!r} of {sig.topic} has {finite} finite "
+                       f"values of {total}", fix="map a field that the sensor fills",
+                       source=source)
+
+
+def _read_field(bag, sig, where: str, source: str):
+    """(stamps ns, SI values, samples excluded as non-finite or overflowing) of one mapped
+    field."""
+    require_topic(bag, sig.topic, where, source)
+    series = bag.series(sig.topic)
+    stamps, values = field_values(series, sig, where, source)
     if sig.stamp != "log":
         _check_clock(series, stamps, where, source)
     ok, excluded = R.usable_samples(values)
     if ok.sum() < 3:
-        raise ConfigError(f"{where}.field", f"{sig.field!r} of {sig.topic} has "
-                          f"{int(ok.sum())} finite values of {ok.size}",
-                          fix="map a field that the sensor fills", source=source)
+        raise too_few(sig, where, source, int(ok.sum()), ok.size)
     return stamps[ok], sig.sign * sig.scale * values[ok], excluded
 
 
-def _read_shaft(bag, shaft, source: str) -> tuple[np.ndarray, np.ndarray | None]:
+def read_shaft(bag, shaft, source: str) -> tuple[np.ndarray, np.ndarray | None]:
     """(stamps ns, angle rad or None for pulses)."""
-    if shaft.topic not in bag.topics:
-        raise ConfigError("shaft.topic", f"no topic {shaft.topic} in {bag.path}",
-                          fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
+    require_topic(bag, shaft.topic, "shaft", source)
     series = bag.series(shaft.topic)
     stamps = _stamps_ns(series, shaft.stamp, "shaft", source)
     if shaft.stamp != "log":
@@ -150,7 +168,7 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
         mapped[TEST_FORCE] = (rmap.test_force, "test_force")
     with open_bag(bag_path, require_messages=True, integrity=True) as bag:
         raw = {name: _read_field(bag, sig, where, source) for name, (sig, where) in mapped.items()}
-        shaft_ns, shaft_angle = _read_shaft(bag, rmap.shaft, source)
+        shaft_ns, shaft_angle = read_shaft(bag, rmap.shaft, source)
     origin_ns = min(min(int(t.min()) for t, _, _ in raw.values()), int(shaft_ns.min()))
     notes, clean = [], {}
     for name, (stamps, values, excluded) in raw.items():
@@ -162,7 +180,7 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     shaft_s = (shaft_ns - origin_ns) * 1e-9
     scenario, assumptions = recording_scenario(
         data, str(config_path), rmap, machine, _recorded_rates(clean),
-        _span_s(clean), _top_speed_hz(rmap.shaft, shaft_s, shaft_angle))
+        _span_s(clean), top_speed_hz(rmap.shaft, shaft_s, shaft_angle))
     if rmap.test_force is not None and scenario.test_force is None:
         raise ConfigError("test_force", "the configuration has no simulation.test_signal (its "
                           "actuator and band)", fix=f"add simulation.test_signal to "
@@ -173,7 +191,7 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
     for name, (t, y, _) in clean.items():
         channels[name], ok = R.resample(t, y, grid, rmap.resample.max_missing_samples)
         valid &= ok
-    shaft, shaft_note = _shaft(rmap.shaft, shaft_s, shaft_angle, grid)
+    shaft, shaft_note = shaft_of(rmap.shaft, shaft_s, shaft_angle, grid)
     valid &= shaft.valid
     top_hz = float(shaft.speed_rad_s.max() / (2 * np.pi))
     if TEST_FORCE in clean:
@@ -194,8 +212,6 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
                        "and the shaft", fix="check the mapping's topics and stamps")
     test = channels.pop(TEST_FORCE, None)
     channels = {n: v[keep] for n, v in channels.items()}
-    if test is None:
-        notes += _noisy_points(grid[keep], shaft.angle_rad[keep], channels, shaft.dwells)
     run = RecordedRun(Path(bag_path), scenario, data, "", grid[keep],
                       shaft.angle_rad[keep], shaft.speed_rad_s[keep], channels,
                       None if test is None else test[keep],
@@ -208,51 +224,86 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
 
 class ShaftTracking:
     """The 1x order tracking of a mapped recording: windows of whole revolutions defined by the
-    shaft (its dwells' second halves, or consecutive windows of a run-up), each channel fitted
-    over its own samples at their own stamps (no resampling, no grid points lost to another
-    channel's gap; rotor_avc.analysis.order_tracking.track_windows). Windows left out for want
-    of samples are added to the run's notes."""
+    shaft (:func:`shaft_windows`), each channel fitted over its own samples at their own stamps
+    (no resampling, no grid points lost to another channel's gap;
+    rotor_avc.analysis.window_tracking). Windows left out for want of samples, and the 1x
+    points too noisy for a verdict (:func:`noise_notes`), are added to the run's notes."""
 
     def __init__(self, run: RecordedRun, shaft: R.Shaft, raw: dict):
         self.run, self.shaft, self.raw = run, shaft, raw
 
     def __call__(self, names, u_ref, runup_revolutions: int):
         channels = {n: self.raw[n] for n in names}
-        knots = self.shaft.knots
-        if self.shaft.dwells:
-            windows = dwell_windows(knots, [(a, b) for a, b, _ in self.shaft.dwells])
-            method, settings = "stepped-speed dwells", {
-                "settle_fraction": 0.5, "min_revolutions": 4,
-                "window": "whole revolutions from the shaft, each channel at its own stamps"}
-        else:
-            start = max([knots.knots_s[0]] + [t[0] for t, _ in channels.values()])
-            stop = min([knots.knots_s[-1]] + [t[-1] for t, _ in channels.values()])
-            windows, skipped = _outside_gaps(revolution_windows(knots, start, stop,
-                                                                runup_revolutions),
-                                             self.shaft.pulse_gaps)
-            self.run.notes += skipped
-            method, settings = "run-up windows (quasi-stationary)", {
-                "revolutions_per_window": runup_revolutions,
-                "window": "whole revolutions from the shaft, each channel at its own stamps"}
-        track, notes = track_windows(knots, windows, channels, u_ref)
-        self.run.notes += notes
-        settings["windows_left_out"] = len(notes)
+        windows, gapped, method, settings = shaft_windows(self.shaft, runup_revolutions)
+        if not self.shaft.dwells:
+            windows, gapped = within_channels(
+                windows, gapped, max(t[0] for t, _ in channels.values()),
+                min(t[-1] for t, _ in channels.values()))
+        track, notes = track_windows(self.shaft.knots, windows, channels, u_ref)
+        self.run.notes += gap_notes(gapped) + notes + noise_notes(track, method)
+        settings["windows_left_out"] = len(gapped) + len(notes)
         return track, method, settings
 
 
-def _outside_gaps(windows, gaps) -> tuple[list, list[str]]:
-    """Run-up windows that overlap no tacho gap of more than two revolutions (where the speed
-    changes, the angle interpolated across the gap is not the shaft's), and a note per window
-    left out."""
-    kept, notes = [], []
-    for t0, t1, n in windows:
-        hit = [g for g in gaps if g[0] < t1 and g[1] > t0]
-        if hit:
-            notes.append(f"1x window {t0:.4g}-{t1:.4g} s left out: the tacho missed "
-                         f"{max(g[2] for g in hit) - 1} pulses there (the speed changes)")
+#: how each channel is fitted in a shaft window
+_WINDOW = "whole revolutions from the shaft, each channel at its own stamps"
+
+
+def shaft_windows(shaft: R.Shaft, runup_revolutions: int):
+    """``(windows, gapped, method, settings)``: the second halves of the shaft's dwells, or
+    (a run-up) consecutive windows of ``runup_revolutions`` over the shaft's record that
+    overlap no tacho gap of more than two revolutions (``gapped``: the others, ``(t0, t1,
+    pulses missed)``)."""
+    if shaft.dwells:
+        return (dwell_windows(shaft.knots, [(a, b) for a, b, _ in shaft.dwells]), [],
+                "stepped-speed dwells", {"settle_fraction": 0.5, "min_revolutions": 4,
+                                         "window": _WINDOW})
+    kept, gapped = [], []
+    knots = shaft.knots.knots_s
+    for t0, t1, n in revolution_windows(shaft.knots, knots[0], knots[-1], runup_revolutions):
+        # where the tacho missed pulses the speed changes unseen: the angle interpolated
+        # across the gap is not the shaft's
+        missed = [g[2] - 1 for g in shaft.pulse_gaps if g[0] < t1 and g[1] > t0]
+        if missed:
+            gapped.append((t0, t1, max(missed)))
         else:
             kept.append((t0, t1, n))
-    return kept, notes
+    return kept, gapped, "run-up windows (quasi-stationary)", {
+        "revolutions_per_window": runup_revolutions, "window": _WINDOW}
+
+
+def within_channels(windows, gapped, start_s: float, stop_s: float):
+    """The run-up windows (and gapped ones) inside the time every channel covers."""
+    return ([w for w in windows if w[0] >= start_s and w[1] <= stop_s],
+            [g for g in gapped if g[0] >= start_s and g[1] <= stop_s])
+
+
+def gap_notes(gapped) -> list[str]:
+    """A note per run-up window left out for a tacho gap (:func:`shaft_windows`)."""
+    return [f"1x window {t0:.4g}-{t1:.4g} s left out: the tacho missed {missed} pulses there "
+            "(the speed changes)" for t0, t1, missed in gapped]
+
+
+def noise_notes(track, method: str) -> list[str]:
+    """Per dwell and channel, the 2-sigma random error of the 1x magnitude from its fit's
+    residual (rotor_avc.analysis.one_x_noise); points it makes undecidable at
+    TOL_OFF_RESONANCE_DB are named, the worst one is stated (dwells only: a run-up's windows
+    are rated as a curve)."""
+    if method != "stepped-speed dwells":
+        return []
+    out, worst = [], (0.0, "")
+    for name, phasors in track.phasors.items():
+        for hz, y, sigma in zip(track.speed_hz, phasors, track.sigma[name]):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ok, width = decidable(float(sigma / abs(y)), TOL_OFF_RESONANCE_DB)
+            worst = max(worst, (width, f"{name} at {hz:.4g} Hz"))
+            if not ok:
+                out.append(f"1x of {name} at {hz:.4g} Hz: noise allows +-{width:.2g} dB "
+                           f"(2 sigma), too poor for a {TOL_OFF_RESONANCE_DB:g} dB verdict")
+    if worst[1]:
+        out.append(f"1x random error from the noise (2 sigma, dwells' second halves): largest "
+                   f"+-{worst[0]:.2g} dB ({worst[1]})")
+    return out
 
 
 def _recorded_rates(clean: dict) -> dict[str, float]:
@@ -264,7 +315,7 @@ def _span_s(clean: dict) -> float:
             - max(t[0] for t, _, _ in clean.values()))
 
 
-def _top_speed_hz(shaft_map, stamps_s, angle) -> float:
+def top_speed_hz(shaft_map, stamps_s, angle) -> float:
     """The highest rotational frequency of the recording (before the grid exists): from the
     shortest pulse interval (duplicates dropped) or the counted encoder angle."""
     if shaft_map.source == "pulse":
@@ -295,7 +346,7 @@ def _grid(clean: dict, period_s: float) -> np.ndarray:
     return anchor + period_s * np.arange(int(np.floor((stop - anchor) / period_s)) + 1)
 
 
-def _shaft(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
+def shaft_of(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
     opts = dict(dwell_tol=shaft_map.dwell_tol, min_revolutions=shaft_map.min_dwell_revolutions)
     if shaft_map.source == "pulse":
         t, _, fixed = R.clean_stamps(stamps_s, np.zeros(stamps_s.size))
@@ -316,28 +367,6 @@ def _shaft(shaft_map, stamps_s, angle, grid) -> tuple[R.Shaft, str]:
                    f"dwells: {dwells or 'none'}")
 
 
-def _noisy_points(time_s, angle_rad, channels, dwells) -> list[str]:
-    """Per dwell and channel, the 2-sigma random error of the 1x magnitude over the dwell's
-    second half (where the order tracking takes it); points it makes undecidable at
-    TOL_OFF_RESONANCE_DB are named, the worst one is stated."""
-    out, worst = [], (0.0, "")
-    for a, b, hz in dwells:
-        sel = (time_s >= 0.5 * (a + b)) & (time_s <= b)
-        if sel.sum() < 8:
-            continue
-        for name, y in channels.items():
-            _, eps = one_x_random_error(angle_rad[sel], y[sel])
-            ok, width = decidable(eps, TOL_OFF_RESONANCE_DB)
-            worst = max(worst, (width, f"{name} at {hz:.4g} Hz"))
-            if not ok:
-                out.append(f"1x of {name} at {hz:.4g} Hz: noise allows +-{width:.2g} dB "
-                           f"(2 sigma), too poor for a {TOL_OFF_RESONANCE_DB:g} dB verdict")
-    if worst[1]:
-        out.append(f"1x random error from the noise (2 sigma, dwells' second halves): largest "
-                   f"+-{worst[0]:.2g} dB ({worst[1]})")
-    return out
-
-
 def band_notes(comp: Comparison, sigmas: float = 2.0) -> list[str]:
     """Per broadband output: coherence over the test band and the share of bins whose H1 lies
     within ``sigmas`` random errors of the sampled-loop model."""
@@ -356,11 +385,3 @@ def band_notes(comp: Comparison, sigmas: float = 2.0) -> list[str]:
                        f"+-{sigmas:g} sigma of the sampled-loop model in "
                        f"{100 * inside.mean():.1f} % of the bins ({est.averages} averages)")
     return out
-
-
-def compare_mapped(bag_path, config, map_path) -> Comparison:
-    """:func:`read_mapped_run` compared (:func:`~.comparison.compare_run`), with
-    :func:`band_notes`."""
-    comp = compare_run(read_mapped_run(bag_path, config, map_path))
-    comp.notes += band_notes(comp)
-    return comp
