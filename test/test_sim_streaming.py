@@ -109,8 +109,13 @@ def test_a_run_held_in_memory_is_refused_above_the_limit(tmp_path, capsys, monke
         assert check_sequence(bag, 250).ok
 
 
+#: samples of the run the signal tests interrupt: long enough (about half a minute undisturbed)
+#: that it cannot end before the signal arrives, however late a loaded machine delivers it
+SIGNALLED_SAMPLES = 3_000_000
+
+
 def _simulate(tmp_path, out):
-    cfg = short_scenario(tmp_path, 60.0)
+    cfg = short_scenario(tmp_path, SIGNALLED_SAMPLES / 5000.0)
     env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
     return subprocess.Popen([sys.executable, "-m", "rotor_avc", "simulate", str(cfg), "--out",
                              str(out)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -136,8 +141,8 @@ def test_ctrl_c_or_kill_leaves_a_valid_partial_bag(tmp_path, sig):
     assert not (tmp_path / ".run.partial.mcap").exists()
     with BagReader(out) as bag:
         bag.check(require_config=True)
-        report = check_sequence(bag, 300_000)
-    assert report.ok and BLOCK_STEPS <= report.samples < 300_000
+        report = check_sequence(bag, SIGNALLED_SAMPLES)
+    assert report.ok and BLOCK_STEPS <= report.samples < SIGNALLED_SAMPLES
     assert report.samples % BLOCK_STEPS == 0 and "incomplete run" in report.notes[-1]
 
 
