@@ -9,7 +9,8 @@ from .config import Section, load_config
 from .control.spec import ContinuousController, controller_from_config
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
-from .settings import AnalysisSettings, ControlSettings, analysis_settings, control_settings
+from .settings import (AnalysisSettings, ControlSettings, analysis_settings, control_settings,
+                       sample_rate_hz)
 
 #: ``model:`` key -> module with ``build(cfg) -> LinearPlant``
 MODELS = {
@@ -45,10 +46,13 @@ class Machine:
     controllers: dict[str, ContinuousController]
     analysis: AnalysisSettings = field(init=False)
     control: ControlSettings = field(init=False)
+    #: the controllers' and every analysis' rate (rotor_avc.settings.sample_rate_hz)
+    sample_rate_hz: float = field(init=False)
 
     def __post_init__(self):
         object.__setattr__(self, "analysis", analysis_settings(self.config))
         object.__setattr__(self, "control", control_settings(self.config))
+        object.__setattr__(self, "sample_rate_hz", sample_rate_hz(self.config))
 
     @property
     def loop(self) -> ClosedLoop:

@@ -176,7 +176,7 @@ def scenario_from_machine(machine: Machine) -> Scenario:
                             f"{control.sample_rate_hz:g} Hz; plant and controllers "
                             "run in lockstep at one rate", fix="give one rate (or drop one key)")
     else:
-        fs = control.rate_hz
+        fs = machine.sample_rate_hz
     try:
         profile = profile_from_config(sim.section("speed"))
     except ModelError as exc:

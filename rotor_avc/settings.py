@@ -170,10 +170,6 @@ class ControlSettings:
                                    "(deliberate instability studies), with a warning "
                                    "(`rotor_avc/analysis/design_check.py`)")
 
-    @property
-    def rate_hz(self) -> float:
-        return DEFAULT_SAMPLE_RATE_HZ if self.sample_rate_hz is None else self.sample_rate_hz
-
     def check(self, sec: Section) -> None:
         if self.prewarp_hz is not None and self.method != "tustin":
             raise sec.error("prewarp_hz", f"applies to method tustin only (method is "
@@ -235,6 +231,18 @@ def analysis_settings(cfg: Section) -> AnalysisSettings:
 
 def control_settings(cfg: Section) -> ControlSettings:
     return read_settings(ControlSettings, cfg.section("control", {}))
+
+
+def sample_rate_hz(cfg: Section) -> float:
+    """The rate of the controllers and of every analysis of a config, as declared:
+    ``control.sample_rate_hz``, else ``simulation.sample_rate_hz`` (the run's), else
+    :data:`DEFAULT_SAMPLE_RATE_HZ`."""
+    rate = control_settings(cfg).sample_rate_hz
+    if rate is None and cfg.has("simulation"):
+        sim = cfg.section("simulation")
+        if sim.has("sample_rate_hz"):
+            rate = sim.number("sample_rate_hz", positive=True, unit="Hz")
+    return DEFAULT_SAMPLE_RATE_HZ if rate is None else rate
 
 
 def damping_floor_rad_s(cfg: Section) -> float:

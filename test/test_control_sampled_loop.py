@@ -242,3 +242,17 @@ def test_seed001_displacement_and_velocity_trends(seed001_limits):
           + "/".join(f"{v:.3g}" for v in seed001_limits["acceleration"][0])
           + " kg, displacement " + "/".join(f"{v:.3g}" for v in (d1, d5, d20))
           + " N/m, velocity " + "/".join(f"{v:.3g}" for v in (v1, v5, v20)) + " N s/m")
+
+
+@pytest.mark.parametrize("config,rate_hz", [("scenario_reference", 1000.0),
+                                            ("scenario_case3_steady", 5000.0),
+                                            ("foot_mount_case3", 5000.0)])
+def test_every_analysis_of_a_scenario_uses_the_runs_rate(config, rate_hz):
+    """control.sample_rate_hz, else simulation.sample_rate_hz, else 5 kHz: the sampled loop
+    that campbell --sampled and the stability checks analyse runs at the run's own rate."""
+    from rotor_avc.config import find_config, load_yaml
+    from rotor_avc.machine import machine_from_config
+    machine = machine_from_config(load_yaml(find_config(config)), config)
+    assert machine.sample_rate_hz == rate_hz
+    loop = machine_sampled_loop(machine)
+    assert {tf.sample_period_s for tf in loop.controllers.values()} == {1.0 / rate_hz}

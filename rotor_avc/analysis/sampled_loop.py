@@ -351,7 +351,7 @@ def machine_sampled_loop(machine, sample_period_s: float | None = None) -> Sampl
     with its loops open, the exact sampled plant at ``T`` (default: the control rate)."""
     blocks = build_digital_controllers(machine, sample_period_s)
     if not blocks and sample_period_s is None:
-        sample_period_s = 1.0 / machine.control.rate_hz
+        sample_period_s = 1.0 / machine.sample_rate_hz
     return SampledLoop.from_blocks(machine.plant, blocks, sample_period_s)
 
 

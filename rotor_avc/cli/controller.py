@@ -46,7 +46,7 @@ def run(args) -> int:
     if args.foot not in machine.controllers:
         known = ", ".join(machine.controllers) or "none"
         raise ModelError(f"--foot {args.foot}: no controller at that foot; controlled feet: {known}")
-    T = 1.0 / (machine.control.rate_hz if args.rate_hz is None else args.rate_hz)
+    T = 1.0 / (machine.sample_rate_hz if args.rate_hz is None else args.rate_hz)
     speed = 2 * math.pi * args.speed_hz
     w_F = machine_poles(machine, speed).w_F
     check = check_design(machine, T, [speed], lambda _: w_F)

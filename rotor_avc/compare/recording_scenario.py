@@ -72,7 +72,7 @@ def _sample_rate(sim: dict, machine, rates_hz: dict[str, float]) -> dict:
     if machine.control.sample_rate_hz is not None:
         return {"value": float(machine.control.sample_rate_hz), "from": "control.sample_rate_hz"}
     if machine.controllers:
-        return {"value": float(machine.control.rate_hz),
+        return {"value": float(machine.sample_rate_hz),
                 "from": "the controllers' default rate (control.sample_rate_hz unset)"}
     name, rate = max(rates_hz.items(), key=lambda item: item[1])
     return {"value": float(round(rate, 6)), "from": f"the fastest channel, {name}"}

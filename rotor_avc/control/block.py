@@ -207,7 +207,8 @@ class DigitalController:
 def sampling(machine, sample_period_s: float | None = None):
     """``(T, method, prewarp_hz)`` from the machine's ``control:`` settings (``T`` overridable)."""
     ctl = machine.control
-    T = check_period(1.0 / ctl.rate_hz if sample_period_s is None else sample_period_s)
+    T = check_period(1.0 / machine.sample_rate_hz if sample_period_s is None
+                     else sample_period_s)
     prewarp = ctl.prewarp_hz
     if prewarp is not None and prewarp >= 0.5 / T:
         raise machine.config.section("control").error(
