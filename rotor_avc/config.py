@@ -12,6 +12,8 @@ so a config cannot make the loader read (or quote in an error) a file the user d
 """
 from __future__ import annotations
 
+import difflib
+
 import math
 import os
 import re
@@ -353,7 +355,9 @@ class Section:
         allowed = set(allowed)
         for key in self.data:
             if key not in allowed:
-                raise self.error(str(key), "unknown key",
+                close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
+                raise self.error(str(key), "unknown key" + (f" (did you mean {close[0]!r}?)"
+                                                            if close else ""),
                                  fix="use one of: " + ", ".join(sorted(allowed)))
 
     # -- typed accessors --------------------------------------------------------------------

@@ -273,6 +273,9 @@ def _read_value(sec: Section, key: str, tp, meta: dict):
     cls = _settings_class(kind)
     if cls is not None:
         return read_settings(cls, sec.section(key))
+    if typing.get_origin(kind) is dict:                 # named entries: name -> value
+        sub, item = sec.section(key), typing.get_args(kind)[1]
+        return {name: _read_value(sub, name, item, meta) for name in sub.keys()}
     if kind is float:
         return sec.number(key, positive=meta["positive"], nonnegative=meta["nonnegative"],
                           minimum=meta["minimum"], maximum=meta["maximum"], unit=meta["unit"])
@@ -323,6 +326,8 @@ def _type_name(tp, meta: dict) -> str:
             names.append(f"list of {typing.get_args(t)[0].__name__}")
         elif t is dict or _settings_class(t) is not None:
             names.append("mapping")
+        elif typing.get_origin(t) is dict:
+            names.append("mapping of names")
         else:
             names.append(t.__name__)
     unit = f" [{meta['unit']}]" if meta["unit"] else ""
@@ -335,9 +340,11 @@ def _rows(cls, prefix: str):
         path = f"{prefix}.{f.name}"
         kinds = [t for t in _options(hints[f.name]) if t is not type(None)]
         sub = _settings_class(kinds[0])
-        if sub is not None:
-            yield path, "mapping", "", f.metadata["doc"]
-            yield from _rows(sub, path)
+        named = (_settings_class(typing.get_args(kinds[0])[1])
+                 if typing.get_origin(kinds[0]) is dict else None)
+        if sub is not None or named is not None:
+            yield path, "mapping" if sub else "mapping of names", "", f.metadata["doc"]
+            yield from _rows(sub or named, path if sub else f"{path}.<name>")
             continue
         default = f.default
         if default is dataclasses.MISSING:

@@ -114,3 +114,13 @@ def test_cli_reports_error_without_traceback(tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert "machine.rotor_mass_kg" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_a_misspelt_key_is_answered_with_the_closest_valid_key(tmp_path):
+    from rotor_avc.config import load_yaml
+    from rotor_avc.machine import machine_from_config
+    data = load_yaml(find_config("foot_mount_case3"))
+    data["foundation"]["stifness_n_per_m"] = data["foundation"].pop("stiffness_n_per_m")
+    with pytest.raises(ConfigError, match=r"foundation.stifness_n_per_m: unknown key \(did you "
+                                          r"mean 'stiffness_n_per_m'\?\)"):
+        machine_from_config(data, "misspelt")
