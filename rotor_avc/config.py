@@ -343,6 +343,12 @@ class Section:
     def keys(self) -> list[str]:
         return list(self.data.keys())
 
+    def only(self, keys: Iterable[str]) -> "Section":
+        """The same section (path, source) holding only ``keys``: the part of a config that one
+        declaration validates (the others are another's)."""
+        keys = set(keys)
+        return Section({k: v for k, v in self.data.items() if k in keys}, self.path, self.source)
+
     def raw(self, key: str, default: Any = _MISSING) -> Any:
         if key not in self.data:
             if default is _MISSING:

@@ -314,6 +314,12 @@ def read_settings(cls, sec: Section):
     return out
 
 
+def read_part(cls, sec: Section):
+    """:func:`read_settings` of the keys of ``sec`` that ``cls`` declares (a model family's
+    top-level keys, next to the sections every config shares)."""
+    return read_settings(cls, sec.only(f.name for f in dataclasses.fields(cls)))
+
+
 # -- the reference -----------------------------------------------------------------------------
 def _type_name(tp, meta: dict) -> str:
     names = []
