@@ -39,7 +39,7 @@ setup(
         # studies on a Dask cluster (`--scheduler`); local studies need nothing beyond the core
         "cluster": ["distributed>=2024.1"],
         "test": ["pytest>=7", "pytest-timeout", "rosbags>=0.10", "mcap-ros2-support>=0.5",
-                 "control>=0.10", "catkin_pkg",
+                 "control>=0.10", "catkin_pkg", "jsonschema>=4.18",
                  "colcon-core", "colcon-ros", "colcon-python-setup-py", "distributed>=2024.1"],
     },
     zip_safe=True,

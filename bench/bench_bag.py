@@ -1,6 +1,6 @@
 """Recording throughput: messages per second written to an MCAP bag (rosbag2 profile, zstd).
 
-The same messages in the same run -- the topic set of the seed-000 graph at 5 kHz (clock, shaft
+The same messages in the same run -- the topic set of the Werner 2021 graph at 5 kHz (clock, shaft
 joint state, acceleration and force of four feet, the labelled observables), already serialised
 to CDR -- written by
 

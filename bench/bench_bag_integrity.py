@@ -1,6 +1,6 @@
 """The integrity pass and recovery: their cost against reading the bag, and their memory.
 
-A 40 s bag of the seed-000 graph's topics at 5 kHz (bench_bag's messages: clock, joint state,
+A 40 s bag of the Werner 2021 graph's topics at 5 kHz (bench_bag's messages: clock, joint state,
 acceleration and force of four feet, the labelled observables; 2.2 M messages) is
 
 * baseline: read as every topic's numpy series (``BagReader.series``, the index path compare

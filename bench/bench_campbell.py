@@ -1,4 +1,4 @@
-"""Benchmark: Campbell diagram of the seed-000 closed loop (case 3), 200 speeds 0..250 Hz.
+"""Benchmark: Campbell diagram of the Werner 2021 closed loop (case 3), 200 speeds 0..250 Hz.
 
 Ours: ``campbell_diagram`` -- at every speed the worst-case poles of ``rotor-avc poles`` plus the
 eigenvectors for MAC tracking. Baseline, same run: the worst-case poles alone at the same speeds
@@ -29,7 +29,7 @@ def main(n_speeds: int = 200) -> int:
     for w in speeds:
         machine_poles(machine, float(w))
     t_base = time.perf_counter() - t0
-    print(f"Campbell diagram, {n_speeds} speeds, seed-000 case 3 closed loop, {cd.poles.shape[1]} modes")
+    print(f"Campbell diagram, {n_speeds} speeds, Werner 2021 case 3 closed loop, {cd.poles.shape[1]} modes")
     print(f"  campbell_diagram (poles + MAC tracking): {t_ours * 1e3:8.1f} ms   (goal <= 1000 ms)")
     print(f"  worst-case poles alone (baseline)      : {t_base * 1e3:8.1f} ms")
     print(f"  ratio to the baseline                  : {t_ours / t_base:8.2f} x")

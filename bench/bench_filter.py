@@ -26,7 +26,7 @@ T = 1.0 / 5000.0
 BLOCK_BUDGET_US = 10.0
 FILTER_BUDGET_US = 5.0
 CASES = {
-    "I on acceleration (seed 000)": i_controller(1.4e5, "acceleration"),
+    "I on acceleration (Werner 2021)": i_controller(1.4e5, "acceleration"),
     "PID with derivative filter": pid_controller(1e6, 2e7, 1e3, "displacement", 1e-4),
     "lead-lag": lead_lag_controller(2e5, 20.0, 200.0, "velocity"),
 }
@@ -71,7 +71,7 @@ def main() -> int:
 
 def check_budgets(x) -> int:
     """1 when a per-sample cost exceeds its budget (module docstring), else 0."""
-    block = DigitalController(discretize_controller(CASES["I on acceleration (seed 000)"], T),
+    block = DigitalController(discretize_controller(CASES["I on acceleration (Werner 2021)"], T),
                               force_limit_n=1e4, anti_windup="conditional_integration")
     _, t_blk = timed(lambda xs: [block.step(v) for v in xs.tolist()], x)
     tf = discretize_controller(CASES["PID with derivative filter"], T, "tustin")

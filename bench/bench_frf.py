@@ -1,4 +1,4 @@
-"""Benchmark: 2,000-speed unbalance FRF of the seed-000 machine, loops open (case 2) and closed
+"""Benchmark: 2,000-speed unbalance FRF of the Werner 2021 machine, loops open (case 2) and closed
 (case 3).
 
 Ours: ``unbalance_frf`` (every output and actuator force, both excitations), which takes the modal

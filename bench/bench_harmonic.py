@@ -1,5 +1,5 @@
 """Benchmark: the adaptive harmonic controller's cost per sample in the in-process lockstep loop
-(seed 000 case 2, 3 actuators x 2 bearing sensors, 1x, Newton, once per revolution, 20 Hz,
+(Werner 2021 case 2, 3 actuators x 2 bearing sensors, 1x, Newton, once per revolution, 20 Hz,
 5 kHz; quasi-steady phasors, and the dynamic feed-forward adapting the unbalance estimate):
 loop with the block minus loop without it (goal: <= 5 us), and as a ratio.
 
@@ -34,7 +34,7 @@ def main():
     run = lambda h: lambda: run_loop(stepper, ctrls, n, harmonic=h,  # noqa: E731
                                      initial_state="steady_state", progress=False)
     t_without = best_of(run(None)) / n
-    print(f"seed-000 case 2 + harmonic control, 20 Hz, {1 / scen.sample_period_s:g} Hz, "
+    print(f"Werner 2021 case 2 + harmonic control, 20 Hz, {1 / scen.sample_period_s:g} Hz, "
           f"{args.seconds:g} s simulated per run")
     print(f"  loop step without a block          {t_without * 1e6:7.2f} us")
     data["harmonic"].update(adapt_in="excitations", refresh_samples=25, feedforward="dynamic")

@@ -3,7 +3,7 @@
 Every figure is measured in this run (the machine may be shared: each lockstep figure is the
 best of ``--repeats`` runs, the graphs measured in turn so that load hits them alike):
 
-**Lockstep** -- seed 000, case 3 (plant + 3 foot controllers), 5 kHz, constant 20 Hz:
+**Lockstep** -- Werner 2021, case 3 (plant + 3 foot controllers), 5 kHz, constant 20 Hz:
 
 * **ping-pong** -- two nodes in one process, publish -> callback -> publish back (typed
   messages), round trips per second, and the same between two processes (raw bytes): the most a
@@ -300,7 +300,7 @@ def main():
                 for name, run in graphs.items():
                     best[name] = max(best[name], run(i))
             base = best["loop"]
-            print(f"lockstep, seed 000 case 3, 5 kHz, {args.steps} samples, best of "
+            print(f"lockstep, Werner 2021 case 3, 5 kHz, {args.steps} samples, best of "
                   f"{args.repeats}")
             print(f"{'graph':30s} {'per s':>9s} {'vs loop':>8s}")
             for name, rate in best.items():

@@ -1,4 +1,4 @@
-"""Benchmark: the in-process lockstep loop of seed 000 (18 DOF, 36 states) with four controllers
+"""Benchmark: the in-process lockstep loop of Werner 2021 (18 DOF, 36 states) with four controllers
 (case 3*) at 5 kHz -- simulated seconds per wall second (goal: >= 20x real time) and the cost
 of one sample against one 36x36 mat-vec measured in the same run.
 
@@ -68,7 +68,7 @@ def main():
     t_build = best_of(lambda: runup.table.ensure(np.arange(runup.table.nodes.size)), 1)
     t_runup = best_of(loop(runup, "rest")) / n
 
-    print(f"seed-000 case 3* (18 DOF, 36 states, 4 controllers), {FS:g} Hz, "
+    print(f"Werner 2021 case 3* (18 DOF, 36 states, 4 controllers), {FS:g} Hz, "
           f"{args.seconds:g} s simulated per run")
     print(f"  baseline: one 36x36 mat-vec                  {t_mv * 1e6:7.2f} us")
     print(f"  plant step, constant speed                   {t_plant * 1e6:7.2f} us "

@@ -3,7 +3,7 @@ duration -- the streamed path (``Scenario.run_blocks`` -> ``stream_run_bag``, th
 against the whole run held in memory and written at the end (``Scenario.run`` ->
 ``write_run_bag``) as the baseline, in the same run.
 
-Run: ``python bench/bench_simulate_memory.py [--durations 2 20 200]``. Scenario: seed-000 case 3
+Run: ``python bench/bench_simulate_memory.py [--durations 2 20 200]``. Scenario: Werner 2021 case 3
 steady (``scenario_case3_steady``, 5 kHz, 3 controllers). Every case runs in its own process;
 its peak resident memory is the process's ``ru_maxrss`` (from ``os.wait4``).
 """

@@ -1,5 +1,5 @@
 """Benchmark: the study engine on this machine -- parallel efficiency of local processes, the
-1,000-point Monte-Carlo robustness study of the seed-000 case-3 closed loop, cost per point and
+1,000-point Monte-Carlo robustness study of the Werner 2021 case-3 closed loop, cost per point and
 scaling with points and workers, and what that means for a 10^6-point study on a cluster.
 
 * efficiency: a study whose points cost about 50 ms (the case-3 robustness point, its speed

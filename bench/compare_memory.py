@@ -1,7 +1,7 @@
 """Peak memory and time of ``rotor-avc compare`` against the recording's length: the streamed
 bag source (the default) against the in-memory path (``--in-memory``, the baseline).
 
-The recordings are seed 000 case 3 at a constant 20 Hz and 5 kHz (``scenario_case3_steady``),
+The recordings are Werner 2021 case 3 at a constant 20 Hz and 5 kHz (``scenario_case3_steady``),
 started on the sampled loop's periodic steady state: 250 samples per revolution, so a 2 s run
 (40 revolutions) repeats exactly, and a run of any length is written by repeating it (time
 and shaft angle continued) without ever holding more than 2 s in memory. Each comparison runs
@@ -9,7 +9,7 @@ in its own process; its peak resident memory (``ru_maxrss``) and wall time are p
 growth per second of run and the ratio streamed / in-memory at the same length.
 
 ``--runup``: the recordings are run-ups instead (no dwells: the order tracking runs over
-windows of whole revolutions, streamed block by block), seed 000 case 3 at 1 kHz from 5 to
+windows of whole revolutions, streamed block by block), Werner 2021 case 3 at 1 kHz from 5 to
 60 Hz over the run's length, each simulated and written by ``rotor-avc simulate`` (streamed).
 
 ``--mapped``: those run-ups recorded as a rig's drivers would and compared through a mapping

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from .closed_loop.loop import ClosedLoop
 from .config import Section, load_config
-from .control.spec import ContinuousController, controller_from_config
+from .control.spec import ContinuousController, controller_settings
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
 from .settings import (AnalysisSettings, ControlSettings, analysis_settings, control_settings,
@@ -21,19 +21,15 @@ MODELS = {
     "sleeve_bearing_motor": "rotor_avc.model_config.sleeve_bearing_motor",
 }
 
-#: what a model module may declare in ``SUPPORTS``: seed 002's synchronous feed-forward
-#: (``simulation.feedforward``), seed 000's one-plane balancer on the machine's bearings
-#: (rotor_avc.balancing.scenario.machine_setup), seed 004's rigid-rotor balancer
+#: what a model module may declare in ``SUPPORTS``: Sci. Rep. 2023's synchronous feed-forward
+#: (``simulation.feedforward``), Werner 2021's one-plane balancer on the machine's bearings
+#: (rotor_avc.balancing.scenario.machine_setup), Zhou & Shi 2001's rigid-rotor balancer
 #: (``rigid_setup``)
 CAPABILITIES = ("feedforward", "plane_balancer", "rigid_balancer")
 
 #: top-level keys every machine config may have; a model module adds its own ``MODEL_KEYS``
 COMMON_KEYS = ("model", "name", "description", "controllers", "control", "analysis",
                "simulation", "balancer", "harmonic")
-
-#: per-foot keys the digital controller reads (rotor_avc.control); allowed next to G_c(s)
-RUNTIME_CONTROLLER_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup",
-                           "back_calculation_gain", "delay_samples", "measurement_limit")
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,22 +81,26 @@ def build_plant(cfg: Section) -> LinearPlant:
 
 
 def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousController]:
+    """The ``G_c(s)`` of each actuator's ``controllers:`` entry (none for ``type: none``), every
+    entry validated with its digital block's keys (rotor_avc.control.spec.ControllerSettings)."""
     sec = cfg.section("controllers", {})
     ids = [a.id for a in plant.actuators]
-    controllers = {}
     for foot in sec.keys():
         if foot not in ids:
             known = ", ".join(ids) if ids else "none (no foot carries an actuator)"
             raise sec.error(str(foot), "unknown foot id or a foot without an actuator",
                             fix=f"controllers go on actuated feet; this machine's are: {known}")
-        ctrl = controller_from_config(sec.section(foot), RUNTIME_CONTROLLER_KEYS)
-        if ctrl is None:
-            continue
-        if ctrl.structure == "tf" and not ctrl.is_proper:
-            raise sec.error(str(foot), "G_c(s) is improper (numerator degree > denominator "
-                            "degree) and cannot run as a filter",
-                            fix="add a filter pole to the denominator (e.g. a derivative filter)")
+    controllers = {}
+    for foot, entry in controller_settings(cfg).items():
         try:
+            ctrl = entry.continuous()
+            if ctrl is None:
+                continue
+            if ctrl.structure == "tf" and not ctrl.is_proper:
+                raise sec.error(str(foot), "G_c(s) is improper (numerator degree > denominator "
+                                "degree) and cannot run as a filter",
+                                fix="add a filter pole to the denominator (e.g. a derivative "
+                                    "filter)")
             ctrl.law_split()
         except ModelError as exc:
             raise sec.error(str(foot), str(exc)) from None

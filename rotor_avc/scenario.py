@@ -59,7 +59,7 @@ class Scenario:
     initial_state: str
     grid_tol: float
     use_balancer: bool = False
-    #: ``simulation.feedforward`` method (``paper`` or ``exact``: seed 002's quantified force
+    #: ``simulation.feedforward`` method (``paper`` or ``exact``: Sci. Rep. 2023's quantified force
     #: played by a 1x generator for the run's unbalance), or None
     feedforward_method: str | None = None
     test_force: BroadbandForce | None = None
@@ -149,24 +149,12 @@ def relevant_mode_hz(machine: Machine) -> float:
     return float(f[:machine.analysis.worst_case.n_modes].max()) if f.size else 0.0
 
 
-def _amplitudes(machine: Machine, sec) -> dict[str, complex]:
-    names = [e.name for e in machine.plant.excitations]
-    units = {e.name: e.unit for e in machine.plant.excitations}
-    sec.check_keys(names)
-    out = {}
-    for name in sec.keys():
-        item = sec.section(name)
-        item.check_keys(("magnitude", "phase_deg"))
-        mag = item.number("magnitude", nonnegative=True, unit=units[name])
-        phase = item.number("phase_deg", 0.0)
-        out[name] = mag * complex(math.cos(math.radians(phase)), math.sin(math.radians(phase)))
-    return out
-
-
 def scenario_from_machine(machine: Machine) -> Scenario:
     """Validate the ``simulation:`` section of a loaded machine config."""
     cfg = machine.config
     sim = cfg.section("simulation")
+    # the plant's excitations name the entries of simulation.unbalance (before their values)
+    sim.section("unbalance", {}).check_keys(e.name for e in machine.plant.excitations)
     s = read_settings(SimulationSettings, sim)
     control = machine.control
     if s.sample_rate_hz is not None:
@@ -217,11 +205,12 @@ def scenario_from_machine(machine: Machine) -> Scenario:
     if s.harmonic and not cfg.has("harmonic"):
         raise sim.error("harmonic", "true, but the config has no `harmonic:` section",
                         fix="add a `harmonic:` section (e.g. include harmonic_bearings.yaml)")
-    test = (broadband_from_config(sim.section("test_signal"), machine.plant, 1.0 / fs)
-            if s.test_signal is not None else None)
+    test = (broadband_from_config(s.test_signal, sim.section("test_signal"), machine.plant,
+                                  1.0 / fs) if s.test_signal is not None else None)
     return Scenario(
         machine=machine, sample_period_s=1.0 / fs, duration_s=duration, profile=profile,
-        amplitudes=_amplitudes(machine, sim.section("unbalance", {})), damping=damping,
+        amplitudes={name: u.amplitude for name, u in (s.unbalance or {}).items()},
+        damping=damping,
         initial_state=s.initial_state, grid_tol=s.speed_grid_tol, use_balancer=s.balancer,
         feedforward_method=_feedforward_method(machine, sim, s), test_force=test,
         use_harmonic=s.harmonic)
@@ -232,7 +221,7 @@ def _feedforward_method(machine: Machine, sim, s: SimulationSettings) -> str | N
         return None
     ff = sim.section("feedforward")
     if not model_supports(machine.config, "feedforward"):
-        raise ff.error("type", "the synchronous (1x) force generator is seed 002's feed-forward "
+        raise ff.error("type", "the synchronous (1x) force generator is Sci. Rep. 2023's feed-forward "
                        "of the active-bearing rotor",
                        fix="use it with model: " + ", ".join(models_supporting("feedforward")))
     overlap = sorted(set(machine.controllers))

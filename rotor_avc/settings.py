@@ -25,6 +25,7 @@ STABILITY_CONTROLLERS = ("continuous", "sampled")
 DAMPING_RULES = ("speed", "whirl")
 INITIAL_STATES = ("rest", "steady_state")
 FEEDFORWARD_METHODS = ("paper", "exact")
+TEST_SIGNAL_KINDS = ("white", "chirp")
 #: relative accuracy of the variable-speed plant (rotor_avc.sim.propagator)
 DEFAULT_GRID_TOL = 1e-5
 
@@ -57,7 +58,7 @@ class SpeedRange:
 
 @dataclass(frozen=True)
 class WorstCaseSettings:
-    """Seed 000 Figure 4: every mode damped at the ``n_modes``-th mode's whirl frequency."""
+    """Werner 2021 Figure 4: every mode damped at the ``n_modes``-th mode's whirl frequency."""
 
     n_modes: int = setting(6, "relevant modes (also the sample-rate check of a scenario)",
                            minimum=1)
@@ -68,7 +69,7 @@ class WorstCaseSettings:
 
 @dataclass(frozen=True)
 class WhirlIterationSettings:
-    """Seed 001 Sec. 3.3: every mode damped at its own whirl frequency."""
+    """Werner 2019 Sec. 3.3: every mode damped at its own whirl frequency."""
 
     rel_tol: float = setting(1e-6, "relative tolerance of each mode's w_F", positive=True,
                              maximum=0.01)
@@ -76,10 +77,10 @@ class WhirlIterationSettings:
 
 @dataclass(frozen=True)
 class ThresholdSettings:
-    """Seed 003 Sec. 3, Fig. 4: the threshold-of-stability procedure (digest 5)."""
+    """Werner 2017 Sec. 3, Fig. 4: the threshold-of-stability procedure (digest 5)."""
 
     w_F_start: float | str = setting("model", "first damping frequency: `model` (the model's "
-                                     "estimate, seed 003 eq. 14) or a number", unit="rad/s",
+                                     "estimate, Werner 2017 eq. 14) or a number", unit="rad/s",
                                      positive=True, choices=("model",))
     rel_tol: float = setting(1e-6, "relative change of w_F that ends the iteration",
                              positive=True, maximum=0.1)
@@ -112,7 +113,7 @@ class StudyGains:
 
 @dataclass(frozen=True)
 class GainStudySettings:
-    """Seed 001 Sec. 4 gain studies (`rotor-avc study`)."""
+    """Werner 2019 Sec. 4 gain studies (`rotor-avc study`)."""
 
     excitation: str | None = setting(None, "the plant's excitation (or --excitation)")
     speed_rpm: SpeedRange | None = setting(None, "speeds of the responses", unit="rpm")
@@ -140,9 +141,9 @@ class AnalysisSettings:
                                       unit="Hz", positive=True)
     frf_speed_hz: SpeedRange | None = setting(None, "speeds of `rotor-avc frf`; its stop bounds "
                                               "a scenario's speeds", unit="Hz")
-    il_speed_hz: SpeedRange | None = setting(None, "seed 002: speeds of the insertion loss",
+    il_speed_hz: SpeedRange | None = setting(None, "Sci. Rep. 2023: speeds of the insertion loss",
                                              unit="Hz")
-    cases_rpm: tuple[float, ...] | None = setting(None, "seed 002: speeds of the force table",
+    cases_rpm: tuple[float, ...] | None = setting(None, "Sci. Rep. 2023: speeds of the force table",
                                                   unit="rpm", min_length=1)
     worst_case: WorstCaseSettings = setting(WorstCaseSettings, "pole_method worst_case")
     whirl_iteration: WhirlIterationSettings = setting(WhirlIterationSettings,
@@ -178,11 +179,56 @@ class ControlSettings:
 
 @dataclass(frozen=True)
 class FeedforwardRun:
-    """``simulation.feedforward``: seed 002's 1x force generator in the loop."""
+    """``simulation.feedforward``: Sci. Rep. 2023's 1x force generator in the loop."""
 
     type: str = setting(doc="`synchronous` (the only kind)", choices=("synchronous",))
     method: str | None = setting(None, "`paper` or `exact` (default: the machine's "
                                  "`feedforward.method`)", choices=FEEDFORWARD_METHODS)
+
+
+@dataclass(frozen=True)
+class UnbalanceEntry:
+    """``simulation.unbalance.<excitation>``: the complex amplitude ``magnitude e^(j phase)`` of
+    one excitation of the plant, in that excitation's unit: kg m for a static unbalance u_e and
+    kg m^2 for a moment unbalance u_alpha (Werner 2021 eqs. 13, 14), m for the mass and magnetic
+    eccentricities and the bent rotor (Werner 2019 eqs. 8-10)."""
+
+    magnitude: float = setting(doc="magnitude of u in the excitation's unit (kg m, kg m^2 or "
+                               "m)", nonnegative=True)
+    phase_deg: float = setting(0.0, "phase of u", unit="deg")
+
+    @property
+    def amplitude(self) -> complex:
+        """``magnitude e^(j phase)``."""
+        phase = math.radians(self.phase_deg)
+        return self.magnitude * complex(math.cos(phase), math.sin(phase))
+
+
+@dataclass(frozen=True)
+class TestSignalSettings:
+    """``simulation.test_signal``: a broadband force added to one actuator's commanded force for
+    measured FRFs (`rotor_avc/sim/broadband.py`). The actuator and the band's Nyquist limit are
+    checked against the plant and the sample rate when the scenario is built."""
+
+    actuator: str = setting(doc="an actuator of the plant")
+    kind: str = setting(doc="`white` (band-limited Gaussian noise) or `chirp` (repeated linear "
+                        "sweep)", choices=TEST_SIGNAL_KINDS)
+    rms_n: float = setting(doc="RMS force (white: the expected value)", unit="N", positive=True)
+    band_hz: tuple[float, ...] = setting(doc="[low, high]: white: the band-pass edges (low 0: "
+                                         "low-pass); chirp: each sweep's start and stop",
+                                         unit="Hz", min_length=2)
+    seed: int = setting(0, "white: the random sequence", minimum=0)
+    sweep_s: float = setting(1.0, "chirp: duration of one sweep, repeated", unit="s",
+                             positive=True)
+
+    def check(self, sec: Section) -> None:
+        if len(self.band_hz) != 2:
+            raise sec.error("band_hz", f"must have 2 entries (got {len(self.band_hz)})",
+                            fix="give [low, high] in Hz")
+        if self.kind == "white" and sec.has("sweep_s"):
+            raise sec.error("sweep_s", "only used with kind: chirp", fix="drop sweep_s")
+        if self.kind == "chirp" and sec.has("seed"):
+            raise sec.error("seed", "only used with kind: white", fix="drop seed")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -193,9 +239,10 @@ class SimulationSettings:
                                            "control.sample_rate_hz)", unit="Hz", positive=True)
     duration_s: float | None = setting(None, "run length (default: the speed profile's)",
                                        unit="s", positive=True)
-    speed: dict = setting(doc="speed profile (`rotor_avc/sim/speed_profile.py`)")
-    unbalance: dict | None = setting(None, "per excitation of the plant: `{magnitude, phase_deg}` "
-                                     "in the excitation's unit")
+    speed: dict = setting(doc="speed profile: one settings class per `type` "
+                          "(`rotor_avc.sim.speed_profile.PROFILE_SETTINGS`)")
+    unbalance: dict[str, UnbalanceEntry] | None = setting(None, "complex amplitude per "
+                                                          "excitation of the plant")
     damping_at: str = setting("speed", "w_F = max(Omega, floor) (`speed`) or frozen at "
                               "whirl_rad_s (`whirl`)", choices=DAMPING_RULES)
     whirl_rad_s: float | None = setting(None, "the frozen w_F of `damping_at: whirl`",
@@ -207,10 +254,9 @@ class SimulationSettings:
     balancer: bool = setting(False, "run the config's `balancer:` in the loop")
     harmonic: bool = setting(False, "run the config's `harmonic:` (adaptive harmonic control) in "
                              "the loop")
-    feedforward: FeedforwardRun | None = setting(None, "seed 002's 1x feed-forward")
-    test_signal: dict | None = setting(None, "broadband test force: actuator, kind (white or "
-                                       "chirp), rms_n, band_hz, seed, sweep_s "
-                                       "(`rotor_avc/sim/broadband.py`)")
+    feedforward: FeedforwardRun | None = setting(None, "Sci. Rep. 2023's 1x feed-forward")
+    test_signal: TestSignalSettings | None = setting(None, "broadband test force of one "
+                                                     "actuator (`rotor_avc/sim/broadband.py`)")
 
     def check(self, sec: Section) -> None:
         if self.damping_at == "whirl" and self.whirl_rad_s is None:
@@ -290,6 +336,12 @@ def _read_value(sec: Section, key: str, tp, meta: dict):
     if kind is str:
         return sec.choice(key, meta["choices"]) if meta["choices"] else sec.string(key)
     item = typing.get_args(kind)[0]
+    if _settings_class(item) is not None:             # a list of entries, each as key[i]
+        if not isinstance(value, list) or len(value) < meta["min_length"]:
+            raise sec.error(key, f"must be a list of at least {max(meta['min_length'], 0)} "
+                            f"mapping(s) (got {value!r})", fix=f"write {key}: [{{...}}, ...]")
+        entries = Section({f"{key}[{i}]": v for i, v in enumerate(value)}, sec.path, sec.source)
+        return tuple(read_settings(item, entries.section(k)) for k in entries.keys())
     if item is float:
         return tuple(sec.number_list(key, min_length=meta["min_length"]))
     if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
@@ -346,8 +398,13 @@ def _rows(cls, prefix: str):
         path = f"{prefix}.{f.name}"
         kinds = [t for t in _options(hints[f.name]) if t is not type(None)]
         sub = _settings_class(kinds[0])
-        named = (_settings_class(typing.get_args(kinds[0])[1])
-                 if typing.get_origin(kinds[0]) is dict else None)
+        origin = typing.get_origin(kinds[0])
+        named = (_settings_class(typing.get_args(kinds[0])[1]) if origin is dict else None)
+        listed = _settings_class(typing.get_args(kinds[0])[0]) if origin is tuple else None
+        if listed is not None:
+            yield path, "list of mappings", "", f.metadata["doc"]
+            yield from _rows(listed, f"{path}[i]")
+            continue
         if sub is not None or named is not None:
             yield path, "mapping" if sub else "mapping of names", "", f.metadata["doc"]
             yield from _rows(sub or named, path if sub else f"{path}.<name>")

@@ -1,4 +1,4 @@
-"""Seed 002 quantified force and phase, RMS and IL: the digest's reproduced table and IL crossing
+"""Sci. Rep. 2023 quantified force and phase, RMS and IL: the digest's reproduced table and IL crossing
 (section 11), the paper's claims (IL > 0 at every sensor for the four cases, reduction in x and
 y), a second formulation for each method, and correction A9 (printed sign doubles the motion)."""
 import dataclasses

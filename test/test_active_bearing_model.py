@@ -1,4 +1,4 @@
-"""Seed 002 model: matrices against eqs. (1)-(5) written out, the digest's derived and reproduced
+"""Sci. Rep. 2023 model: matrices against eqs. (1)-(5) written out, the digest's derived and reproduced
 values (sections 5, 11), the sensor transform (eqs. 11-15) and the equation corrections A2, A3,
 A4, A7, A8, A12 each checked by the physics the printed form breaks (digest section 9)."""
 import copy

@@ -78,7 +78,7 @@ def test_bad_input_is_refused():
 
 
 def test_model_check_agrees_with_the_campbell_damping(capsys):
-    """An isolated mode of seed 001's motor: AF of the bearing response ~ 1 / (2 zeta) of the
+    """An isolated mode of Werner 2019's motor: AF of the bearing response ~ 1 / (2 zeta) of the
     mode where it crosses 1x (Campbell diagram, forced-response damping)."""
     assert main(["api684", "sleeve_bearing_motor", "--operating-hz", "55:65", "--speed-hz",
                  "5:75:1401", "--responses", "bearing_vz_mass_eccentricity", "--json"]) == 0

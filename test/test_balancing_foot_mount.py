@@ -1,4 +1,4 @@
-"""One-plane balancing on the seed-000 machine: the point-mass -> (static, moment) mapping against
+"""One-plane balancing on the Werner 2021 machine: the point-mass -> (static, moment) mapping against
 the model's own kinematics, the per-speed optimal corrections (least squares never worse than no
 or single-mode balancing), the influence-coefficient RLS with its holds, and a quasi-steady run-up
 through the resonances with the balancer block."""

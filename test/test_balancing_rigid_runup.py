@@ -1,4 +1,4 @@
-"""Seed 004 Figure 4: the in-process run-up of the paper's rotor with the balancer block. The
+"""Zhou & Shi 2001 Figure 4: the in-process run-up of the paper's rotor with the balancer block. The
 simulator against the closed form of App. A, and the digest's strategy comparison (peak whirl of
 the output point before / after 2.6 s and RMS over 0-4 s, within 2 %)."""
 import dataclasses

@@ -1,4 +1,4 @@
-"""RLS of the imbalance (seed 004 eqs. 2-3, digest 3.2 and 6): the generic filter against batch
+"""RLS of the imbalance (Zhou & Shi 2001 eqs. 2-3, digest 3.2 and 6): the generic filter against batch
 least squares, its covariance over long runs, forgetting, safe holds; the paper's estimator on
 exact run-up signals (closed form of App. A) with and without the paper's noise level."""
 import dataclasses

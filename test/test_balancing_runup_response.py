@@ -1,4 +1,4 @@
-"""Seed 004 App. A: the closed-form run-up response against numerical integration, its stated
+"""Zhou & Shi 2001 App. A: the closed-form run-up response against numerical integration, its stated
 structure (K jump, small transient), the digest's M_k test vector, and the rigid-rotor
 LinearPlant against the steady-state limit."""
 import numpy as np

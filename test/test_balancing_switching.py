@@ -1,4 +1,4 @@
-"""Seed 004 eqs. 7-13: the switching instants (paper 2.9506 s with W = l_s; 2.68411 s with the
+"""Zhou & Shi 2001 eqs. 7-13: the switching instants (paper 2.9506 s with W = l_s; 2.68411 s with the
 derived W = |d| l_s), their sensitivity to the shaft density (digest 8), the geometric solution of
 eq. 13 against brute force, the balancer targets and the rate-limited actuator."""
 

@@ -1,6 +1,6 @@
 """Campbell diagrams: agreement with `rotor-avc poles`, mode identity at crossings (MAC
 tracking) against an analytic gyroscopic rotor, critical speeds and the onset of instability
-against seed 003's threshold procedure."""
+against Werner 2017's threshold procedure."""
 import dataclasses
 import json
 
@@ -97,7 +97,7 @@ def test_campbell_agrees_with_the_poles_command(capsys, config, grid, speeds_hz)
 
 
 def test_onset_of_instability_is_seed_003s_threshold():
-    """Per-mode whirl iteration over speed vs the threshold iteration of seed 003 (Sec. 3)."""
+    """Per-mode whirl iteration over speed vs the threshold iteration of Werner 2017 (Sec. 3)."""
     machine, threshold = machine_threshold(load_config("roller_bearing_stability"))
     n_thr = threshold.speed_rad_s
     cd = campbell_diagram(machine, np.linspace(0.8 * n_thr, 1.2 * n_thr, 9), rule="config")

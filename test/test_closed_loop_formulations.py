@@ -1,4 +1,4 @@
-"""Cross-method checks of the seed-000 closed loop: the paper's 54x54 state-space FRF (eq. 41)
+"""Cross-method checks of the Werner 2021 closed loop: the paper's 54x54 state-space FRF (eq. 41)
 against the dynamic-stiffness solve, and the Figure-5 embedding against the general loop."""
 import numpy as np
 import pytest
@@ -146,7 +146,7 @@ def test_case3_embedding_check_values():
 
 def general_realisation_poles(loop, speed, w_F):
     """Independent closed loop: each G_c realised (tf2ss) on its *actual* feedback signal, the
-    acceleration algebraic loop solved explicitly -- as seed 000 §6 describes."""
+    acceleration algebraic loop solved explicitly -- as Werner 2021 §6 describes."""
     p = loop.plant
     n = p.n
     M, D, C = p.mass, p.damping(speed, w_F), p.stiffness_at(speed, w_F)

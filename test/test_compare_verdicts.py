@@ -1,4 +1,4 @@
-"""`rotor-avc compare` rates the complex response: a small lockstep bag of seed 000 case 3
+"""`rotor-avc compare` rates the complex response: a small lockstep bag of Werner 2021 case 3
 (2 kHz) passes, and the same bag rewritten message by message with the faults a commissioning
 check must catch fails (sign flips, a one-sample delay, dead channels) or gets no verdict
 (exit status 5: all signals zero, the channels missing, every point unsettled); a gap is an

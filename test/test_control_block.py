@@ -29,7 +29,7 @@ def test_case3_blocks_from_config_defaults():
     b = blocks["DL"]
     assert b.sample_period_s == 1 / 5000.0 and b.feedback == "acceleration"
     np.testing.assert_allclose(b.tf.b, [14.0, 14.0])      # b0 T / 2, Tustin
-    # seed 000 eq. 7, f = -G_c a: a positive acceleration step gives a negative force ramp
+    # Werner 2021 eq. 7, f = -G_c a: a positive acceleration step gives a negative force ramp
     forces = [b.step(1.0) for _ in range(3)]
     np.testing.assert_allclose(forces, [-14.0, -42.0, -70.0])
 

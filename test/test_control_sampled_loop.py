@@ -60,7 +60,7 @@ def test_leaky_integrator_has_no_drift_mode_and_converges(case3):
 
 @pytest.mark.parametrize("speed_hz", [0.0, 250.0])
 def test_case3_at_5khz_is_stable_at_the_papers_speeds(case3, speed_hz):
-    """Seed 000 R7 (stable at f_r = 0 and 250 Hz) holds for the 5 kHz Tustin controllers."""
+    """Werner 2021 R7 (stable at f_r = 0 and 250 Hz) holds for the 5 kHz Tustin controllers."""
     speed = 2 * np.pi * speed_hz
     w_F = worst_case_poles(case3.loop, speed).w_F
     poles = machine_sampled_loop(case3, 1 / 5000.0).poles(speed, w_F)
@@ -144,7 +144,7 @@ def test_acceleration_feedthrough_gain_limit_is_analytic(case3):
         limits.append(loop.stable_gain_range(0.0, 657.0, max_factor=1e5,
                                              rtol=1e-4).upper)
     assert abs(limits[1] / k_lim - 1) < 1e-3
-    assert limits[0] >= limits[1] * (1 - 1e-3)      # the seed-000 plant: no lower at 1 kHz
+    assert limits[0] >= limits[1] * (1 - 1e-3)      # the Werner 2021 plant: no lower at 1 kHz
 
 
 def test_extra_delay_lowers_the_gain_limit(case3):
@@ -202,7 +202,7 @@ def test_unstable_loop_grows_in_time_as_its_largest_pole(case3):
 
 @pytest.fixture(scope="module")
 def seed001_limits():
-    """Largest stable gain (N/m, N s/m, kg) of seed 001's P controllers per rate, at 3600 rpm
+    """Largest stable gain (N/m, N s/m, kg) of Werner 2019's P controllers per rate, at 3600 rpm
     with w_F = Omega and Tustin filters, no extra delay (digest 001 section 8's setup)."""
     speed = 2 * np.pi * 3600 / 60
     out = {}
@@ -238,7 +238,7 @@ def test_seed001_displacement_and_velocity_trends(seed001_limits):
     assert d5 / d1 > 5
     (v1, v5, v20), k_vel, _ = seed001_limits["velocity"]
     assert min(v1, v5, v20) > k_vel
-    print("\nseed 001 limits at 1/5/20 kHz: acceleration "
+    print("\nWerner 2019 limits at 1/5/20 kHz: acceleration "
           + "/".join(f"{v:.3g}" for v in seed001_limits["acceleration"][0])
           + " kg, displacement " + "/".join(f"{v:.3g}" for v in (d1, d5, d20))
           + " N/m, velocity " + "/".join(f"{v:.3g}" for v in (v1, v5, v20)) + " N s/m")

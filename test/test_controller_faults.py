@@ -2,7 +2,7 @@
 non-finite, a saturated output recovers, and bad stamps cost a bounded number of samples.
 
 Each case runs the block built from the shipped case-3 config (G_c = 1.4e5/s on acceleration,
-seed 000 eq. 50) against a reference block that never saw the fault; "recovered" means the
+Werner 2021 eq. 50) against a reference block that never saw the fault; "recovered" means the
 faulty block's force equals the reference's again (exactly, or within 1 N where the fault
 legitimately moved the state), and the number of samples that takes is asserted."""
 import math

@@ -2,7 +2,7 @@
 that cause them (`simulate`, `controller`), allowed with a warning by `control.allow_unstable`;
 an unstable run that diverges is said; no NaN in the stable gain range.
 
-The sampled loop's verdict is checked against the continuous closed loop (seed 000 eq. 43, a
+The sampled loop's verdict is checked against the continuous closed loop (Werner 2021 eq. 43, a
 separate eigenproblem): at a high sample rate the unstable poles s = ln(z)/T of the one are
 those of the other."""
 import math

@@ -1,4 +1,4 @@
-"""Seed 000 model: matrices against the paper's Appendix, poles and FRFs against the paper's
+"""Werner 2021 model: matrices against the paper's Appendix, poles and FRFs against the paper's
 stated numbers (digest 8.1) and the reproduced reference values (digest 8.2-8.3)."""
 import numpy as np
 import pytest

@@ -1,6 +1,6 @@
 """The dynamic feed-forward of harmonic control (rotor_avc.harmonic.internal_model): the block
 against a per-sample run of its own internal loop (a second method), and run-ups on the open
-feet of seed 000 (case 2) against case 2 at every resonance of the model."""
+feet of Werner 2021 (case 2) against case 2 at every resonance of the model."""
 import copy
 
 import numpy as np

@@ -154,7 +154,7 @@ def test_settings_and_config_errors():
                           ({"runout": [{"sensor": "bearing_D_vz", "magnitude": -1.0}]},
                            "harmonic.runout[0].magnitude"),
                           ({"runout": [{"sensor": "bearing_D_vz", "magnitud": 1.0}]},
-                           "harmonic.runout[0]"),
+                           "harmonic.runout[0].magnitud"),
                           ({"colour": 1}, "harmonic.colour")):
         data = {**base, "harmonic": {**base["harmonic"], **change}}
         with pytest.raises(ConfigError) as err:

@@ -1,4 +1,4 @@
-"""Adaptive harmonic control on seed 000's machine (case 2 open feet, case 3 feedback): the exact
+"""Adaptive harmonic control on Werner 2021's machine (case 2 open feet, case 3 feedback): the exact
 one-revolution loop analysis against time simulation, and the attenuation it reaches.
 
 1x levels come from order tracking of the recorded bearing velocities (one phasor per
@@ -320,7 +320,7 @@ def test_robustness_map_points_confirmed_by_time_simulation(law):
 
 
 def test_seed002_bearing_actuators_converge_to_the_quantified_feedforward():
-    # seed 002: four bearing actuators cancelling the 1x of the four housing motions; the
+    # Sci. Rep. 2023: four bearing actuators cancelling the 1x of the four housing motions; the
     # converged force phasors equal the paper's exact quantified force (digest 6.5), played by
     # the synchronous generator as sample phasors (ZOH compensation included)
     from rotor_avc.analysis.active_bearing_ff import synchronous_generator

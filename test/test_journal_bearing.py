@@ -70,7 +70,7 @@ def test_short_bearing_limit(eps):
 
 
 def test_grid_convergence():
-    """Refining the grid changes force and coefficients less and less (B/D of seed 001)."""
+    """Refining the grid changes force and coefficients less and less (B/D of Werner 2019)."""
     sols = [film_solution(0.6, 0.74, nt, nz) for nt, nz in ((60, 6), (120, 12), (240, 24))]
     vec = [np.concatenate([[s.force, s.attitude_rad], s.stiffness.ravel(), s.damping.ravel()])
            for s in sols]

@@ -1,5 +1,5 @@
 """`rotor-avc compare DIR --config MACHINE --map MAP` on rig-style recordings (test/rig_recordings.py):
-the seed-000 machine with its case-3 loops (Werner 2021), run through stepped speeds drawn at
+the Werner 2021 machine with its case-3 loops (Werner 2021), run through stepped speeds drawn at
 random between 5 and 120 Hz, recorded as a rig's drivers would -- Imu accelerometers at 1 kHz
 on turned axes in g, bearing velocities at 1.25 kHz in mm/s in a turned frame, a tacho pulse
 only (missing and bouncing pulses), 40 dB SNR, 20 us stamp jitter, 400 us latency with an

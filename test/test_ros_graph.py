@@ -192,7 +192,7 @@ simulation:
 
 @pytest.mark.parametrize("scenario", ["scenario_sleeve_velocity", "scenario_stability_demo"])
 def test_other_machines_run_in_the_graph(scenario):
-    """Seed 001 (oil films, velocity feedback at feet L, R) and seed 003 (soft foundation, damping
+    """Werner 2019 (oil films, velocity feedback at feet L, R) and Werner 2017 (soft foundation, damping
     frozen at the whirl frequency) through the same nodes: equal to the in-process loop."""
     sc = load_scenario(scenario)
     feet = tuple(sc.machine.controllers)
@@ -207,7 +207,7 @@ def test_other_machines_run_in_the_graph(scenario):
 
 
 def test_feedforward_node_in_lockstep_equals_in_process():
-    """Seed 002: the plant waits for the synchronous_controller's 1x forces (actuators y1, x1,
+    """Sci. Rep. 2023: the plant waits for the synchronous_controller's 1x forces (actuators y1, x1,
     y2, x2 in the bearing housings); equal to the in-process loop with the same generator."""
     from rotor_avc.nodes.synchronous_controller import SynchronousController
     scenario = "scenario_active_bearing"

@@ -1,6 +1,6 @@
 """`rotor-avc compare BAG --config --map` on recordings this package did not write: rosbag2
 directories of two split files written by rosbags (test/rosbag2_corpus.py) from simulated runs
-of seed 000 case 3, with driver-style topics (Imu at 5 kHz, one sensor upside down in g,
+of Werner 2021 case 3, with driver-style topics (Imu at 5 kHz, one sensor upside down in g,
 bearing velocities at 2.5 kHz), a tacho pulse instead of the shaft angle, 2 us stamp jitter,
 1 % dropped messages and sensor noise at a stated SNR.
 

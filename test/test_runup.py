@@ -21,7 +21,7 @@ CONFIG = Path(__file__).resolve().parents[1] / "config"
 
 @pytest.fixture(scope="module")
 def runup_bag(tmp_path_factory):
-    """Seed 000 case 2 (loops open), 0 -> 28 Hz in 10 s at 2 kHz: the modes at 7.5 .. 24.8 Hz."""
+    """Werner 2021 case 2 (loops open), 0 -> 28 Hz in 10 s at 2 kHz: the modes at 7.5 .. 24.8 Hz."""
     folder = tmp_path_factory.mktemp("runup")
     scenario = folder / "runup.yaml"
     scenario.write_text(f"include: {CONFIG / 'foot_mount_case2.yaml'}\n"

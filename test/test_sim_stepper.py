@@ -1,5 +1,5 @@
 """The plant stepper against independent results: the ZOH discretisation of models.discretize,
-the continuous unbalance FRF (seed 000 eqs. 41-42), scipy's solve_ivp on the same equations
+the continuous unbalance FRF (Werner 2021 eqs. 41-42), scipy's solve_ivp on the same equations
 through a resonance, energy conservation without damping, and the sampling contract."""
 import dataclasses
 
@@ -282,7 +282,7 @@ def test_bad_inputs(case2):
 
 
 def test_speed_dependent_excitation_factor(case2):
-    """An excitation with a speed factor k(Omega) (seed 001's magnetic eccentricity form) and
+    """An excitation with a speed factor k(Omega) (Werner 2019's magnetic eccentricity form) and
     p0/p1 terms: the steady state still equals the continuous FRF of Excitation.phasor."""
     p = case2.plant
     static = p.excitation("static")

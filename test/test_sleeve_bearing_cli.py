@@ -1,4 +1,4 @@
-"""``rotor-avc poles | frf | study`` on the seed-001 configs."""
+"""``rotor-avc poles | frf | study`` on the Werner 2019 configs."""
 import csv
 import json
 

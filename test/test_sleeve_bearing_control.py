@@ -1,4 +1,4 @@
-"""Seed 001's 15 controller-structure x feedback combinations (Sec. 3.2, Table 1; digest 3.3-3.4):
+"""Werner 2019's 15 controller-structure x feedback combinations (Sec. 3.2, Table 1; digest 3.3-3.4):
 the general closed loop (frequency-domain law ``G(s) P T^T``) against the paper's embedding of the
 gains into M, D, C (eqs. 24, 29, 37 and their renamings), against the state space with controller
 states where the embedding does not exist, and the paper's equivalences (Eq. 60)."""

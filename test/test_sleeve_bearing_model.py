@@ -1,4 +1,4 @@
-"""Seed 001 model (rotor_avc.models.sleeve_bearing_motor): M, D, C against the paper's eqs. (11)-(13)
+"""Werner 2019 model (rotor_avc.models.sleeve_bearing_motor): M, D, C against the paper's eqs. (11)-(13)
 written out entry by entry (digest 3.1), excitations (eqs. 8-10), actuator vectors (eqs. 16-17),
 the electromagnetic field model's limits, and config refusals."""
 import math

@@ -1,4 +1,4 @@
-"""Seed 001 in time: the in-process lockstep loop with velocity feedback against the analytical
+"""Werner 2019 in time: the in-process lockstep loop with velocity feedback against the analytical
 models (issue 8), and the sample-rate limits of the gains in a digital loop (digest 001 section 8)."""
 import copy
 import math

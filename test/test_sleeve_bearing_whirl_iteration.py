@@ -1,5 +1,5 @@
 """The per-mode whirl-frequency iteration (rotor_avc.analysis.whirl_iteration) on systems with a
-closed-form answer, on near-degenerate modes, and as the seed-001 config's pole method."""
+closed-form answer, on near-degenerate modes, and as the Werner 2019 config's pole method."""
 import math
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Seed 003 model (roller-bearing rotor, rigid stator on a soft foundation): matrices against the
+"""Werner 2017 model (roller-bearing rotor, rigid stator on a soft foundation): matrices against the
 digest's equation-by-equation table (3.3), model properties (mirror symmetry, identifiable
 stator ratios, rigid-foundation reduction), standstill frequencies and feed-through against the
 digest's reproduced values, and config validation."""

@@ -1,4 +1,4 @@
-"""Seed 003 parameter studies: the maxima of the paper's Figs. 7-11 (Sec. 4.9), the digest's
+"""Werner 2017 parameter studies: the maxima of the paper's Figs. 7-11 (Sec. 4.9), the digest's
 isotropic-foundation and foot velocity-feedback studies (7.3, 9), the study mechanics (variants,
 ``--vary`` grammar) and the ``rotor-avc stability`` command."""
 import json

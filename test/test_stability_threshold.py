@@ -1,4 +1,4 @@
-"""Seed 003 threshold procedure: the paper's Table 2, the digest's closed-form check (3.6), the
+"""Werner 2017 threshold procedure: the paper's Table 2, the digest's closed-form check (3.6), the
 whirl-frequency iteration from eq. (14), bracketing against a fine speed scan, instability
 bubbles, and the outcomes without a threshold in the range."""
 import math
@@ -183,7 +183,7 @@ def test_first_crossing_with_a_stable_plant_everywhere(base):
 
 @pytest.mark.parametrize("name", ["a", "e"])
 def test_per_mode_whirl_iteration_agrees_at_the_threshold(table2, name):
-    """Second method: seed 001's per-mode fixed point (every mode damped at its own whirl
+    """Second method: Werner 2019's per-mode fixed point (every mode damped at its own whirl
     frequency) has the critical pole on the imaginary axis at the threshold speed, at the same
     frequency, and in the right half plane just above it."""
     from rotor_avc.analysis.whirl_iteration import per_mode_poles

@@ -277,7 +277,7 @@ def test_robustness_command_refusals(tmp_path, capsys, argv, message):
 
 
 def test_a_stability_map_resumes_from_its_folder(tmp_path, capsys):
-    """Seed 003's threshold over the bearing stiffness: the second run reads every point back
+    """Werner 2017's threshold over the bearing stiffness: the second run reads every point back
     and writes the same table."""
     argv = ["stability", "roller_bearing_stability", "--variant", "d", "--vary",
             "bearings.stiffness_n_per_m.z=1.0e+8:3.0e+8:3", "--out", str(tmp_path)]

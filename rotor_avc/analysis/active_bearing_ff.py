@@ -1,4 +1,4 @@
-"""Quantified actuator force and phase of seed 002: the synchronous feed-forward that cancels the
+"""Quantified actuator force and phase of Sci. Rep. 2023: the synchronous feed-forward that cancels the
 bearing-housing motion (eqs. 30-39; digest sections 6, 7 and 9).
 
 At spin speed ``Omega`` the synchronous compliance (eqs. 30-31, with ``K'`` in ``kappa'`` (A8);
@@ -135,7 +135,7 @@ def solve_feedforward(plant: LinearPlant, speed_rad_s, method: str = "paper",
     if method not in METHODS:
         raise ModelError(f"unknown feed-forward method {method!r}; use one of {', '.join(METHODS)}")
     if plant.coords != COORDS:
-        raise ModelError(f"{plant.name}: the quantified force needs the seed-002 active-bearing "
+        raise ModelError(f"{plant.name}: the quantified force needs the Sci. Rep. 2023 active-bearing "
                          "plant (model: active_bearing)")
     speeds = _check_speeds(speed_rad_s)
     acts = plant.actuators

@@ -1,4 +1,4 @@
-"""Gain studies: forced response over speed for a family of controller gains (seed 001 Sec. 4).
+"""Gain studies: forced response over speed for a family of controller gains (Werner 2019 Sec. 4).
 
 For each gain ``K`` of one controller term (the paper: P-controllers, ``K_pL = K_pR``, on
 displacement, velocity or acceleration feedback; eqs. 79-84) every actuator gets the same

@@ -1,4 +1,4 @@
-"""Control-performance metrics: RMS, insertion loss (seed 002 eq. 43) and its zero crossing.
+"""Control-performance metrics: RMS, insertion loss (Sci. Rep. 2023 eq. 43) and its zero crossing.
 
 ``IL [dB] = 20 log10(before / after)``: positive means reduction, and 0 dB is the paper's control
 criterion (Fig. 7). For a steady single-frequency response the RMS of a sinusoid of amplitude

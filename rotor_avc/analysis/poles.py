@@ -1,4 +1,4 @@
-"""Closed-loop poles, damping ratios and the worst-case pole procedure (seed 000 Figure 4).
+"""Closed-loop poles, damping ratios and the worst-case pole procedure (Werner 2021 Figure 4).
 
 Loss-factor damping ``d = c tan(delta) / w_F`` makes the pole equation (43) depend on the unknown
 whirl frequency. The paper's worst case damps every mode with ``w_F`` = the frequency of the
@@ -111,7 +111,7 @@ def _worst_case_from_config(machine, speed_rad_s: float) -> PoleResult:
 
 def whirl_iteration_poles(machine, speed_rad_s: float) -> PoleResult:
     """``analysis.pole_method: whirl_iteration``: every mode damped at its own whirl frequency
-    (:func:`~rotor_avc.analysis.whirl_iteration.per_mode_poles`, seed 001 Sec. 3.3); ``w_F``
+    (:func:`~rotor_avc.analysis.whirl_iteration.per_mode_poles`, Werner 2019 Sec. 3.3); ``w_F``
     and the one-entry history are the least damped pole's."""
     res = per_mode_poles(machine.loop, speed_rad_s, rel_tol=machine.analysis.whirl_iteration.rel_tol)
     w_F = float(res.w_F[res.critical])
@@ -119,11 +119,11 @@ def whirl_iteration_poles(machine, speed_rad_s: float) -> PoleResult:
 
 
 #: ``analysis.pole_method`` (rotor_avc.settings.POLE_METHODS) -> ``f(machine, speed_rad_s) ->
-#: PoleResult``; each plant's config names the damping procedure of its paper (seed 000:
+#: PoleResult``; each plant's config names the damping procedure of its paper (Werner 2021:
 #: Figure 4's worst case).
 POLE_METHODS = {
     "worst_case": _worst_case_from_config,
-    "whirl_iteration": whirl_iteration_poles,    # seed 001
+    "whirl_iteration": whirl_iteration_poles,    # Werner 2019
 }
 
 

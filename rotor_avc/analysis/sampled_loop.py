@@ -2,7 +2,7 @@
 
 At sample ``k`` each controlled foot measures its signal from the plant state ``x_k`` -- for
 acceleration including the feed-through of the forces ``u_{k-1}`` held over the last interval
-and the excitation force at ``t_k`` (seed 000 eqs. 20-24, ``D_st != 0``) -- its discrete filter
+and the excitation force at ``t_k`` (Werner 2021 eqs. 20-24, ``D_st != 0``) -- its discrete filter
 (:mod:`rotor_avc.control.discretize`, the same one the :class:`DigitalController` block runs) and
 ``d`` extra delay samples give ``u_k = -G_d(z) z^-d signal_k``, and the plant, exactly
 ZOH-discretised (:func:`rotor_avc.models.discretize.discretize_plant`), holds ``u_k`` over

@@ -1,4 +1,4 @@
-"""Threshold-of-stability studies over configuration parameters (seed 003, Secs. 4.3-4.9).
+"""Threshold-of-stability studies over configuration parameters (Werner 2017, Secs. 4.3-4.9).
 
 A study starts from a machine config, applies named *variants* (the config's ``variants:``
 section: dotted config paths -> values, e.g. Table 2's case d ``{foundation.kind: rigid}``) and
@@ -58,7 +58,7 @@ def threshold_settings(cfg: Section) -> ThresholdSettings:
 
 def whirl_start(cfg: Section, settings: ThresholdSettings) -> float:
     """First damping frequency of the iteration (rad/s): the number given, or for ``model`` the
-    model module's ``whirl_start_rad_s(cfg)`` (seed 003: eq. 14)."""
+    model module's ``whirl_start_rad_s(cfg)`` (Werner 2017: eq. 14)."""
     if settings.w_F_start != "model":
         return float(settings.w_F_start)
     model = cfg.string("model")

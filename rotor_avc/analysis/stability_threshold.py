@@ -1,4 +1,4 @@
-"""Threshold of stability of a closed loop with loss-factor damping (seed 003, Sec. 3, Fig. 4).
+"""Threshold of stability of a closed loop with loss-factor damping (Werner 2017, Sec. 3, Fig. 4).
 
 Rotating (internal) damping adds circulatory stiffness ``Omega / w_F N_eta``; above a speed
 ``Omega_stab`` one eigenvalue of the state matrix (eqs. 11-12) crosses into the right half plane
@@ -6,7 +6,7 @@ and the machine whirls at ``omega_stab`` (eq. 13). Loss-factor damping ``d = c t
 (eqs. 2-4) needs the whirl frequency ``w_F = omega_stab`` (eq. 1), which is known only at the end,
 so the threshold is a fixed point (digest 6):
 
-1. start from an estimate ``w_F`` (seed 003: eq. 14);
+1. start from an estimate ``w_F`` (Werner 2017: eq. 14);
 2. with every damping coefficient frozen at ``w_F``, ``g(Omega) = max_k Re lambda_k`` is scanned on
    a log-spaced speed grid; the threshold is the *first* speed where ``g`` crosses zero: the first
    grid bracket with ``g(lo) < 0 <= g(hi)``, or earlier an instability bubble -- a local maximum
@@ -260,7 +260,7 @@ def stability_threshold(loop, w_F_start: float, speed_min_rad_s: float,
     """The paper's threshold procedure (Fig. 4, digest 6); see the module docstring.
 
     ``loop`` is a continuous ``ClosedLoop`` or a sampled loop (``SampledLoop``: threshold where a
-    pole leaves the unit circle); ``w_F_start`` is the first damping frequency (rad/s; seed 003:
+    pole leaves the unit circle); ``w_F_start`` is the first damping frequency (rad/s; Werner 2017:
     eq. 14), the speed range is scanned on ``n_grid`` log-spaced speeds, ``rel_tol`` is the
     paper's ``Delta``."""
     if not (np.isfinite(w_F_start) and w_F_start > 0):

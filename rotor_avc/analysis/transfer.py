@@ -4,7 +4,7 @@ fixed rotor speed: the model of a broadband FRF measurement (a test force, rotor
 A force ``d`` at actuator ``i`` (vector ``P_i``) enters the closed loop beside the controllers,
 which keep acting on their own feedback signals. Responses per unit force:
 
-* continuous (seed 000 eqs. 41-42 with ``P_i d`` in place of the unbalance phasor)::
+* continuous (Werner 2021 eqs. 41-42 with ``P_i d`` in place of the unbalance phasor)::
 
       q(w) = Z(j w)^-1 P_i,     quantity = (j w)^order row . q,     f_c = -H_c(j w) s_c . q
 

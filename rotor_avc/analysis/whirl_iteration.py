@@ -1,8 +1,8 @@
-"""Poles with frequency-dependent damping: the per-mode whirl-frequency iteration (seed 001
+"""Poles with frequency-dependent damping: the per-mode whirl-frequency iteration (Werner 2019
 Sec. 3.3, eqs. 62-64; digest 3.5).
 
 Loss-factor damping ``d = c tan(delta) / w_F`` (eq. 1), the circulatory term ``d_i Omega`` and any
-frequency-dependent coefficients of the plant (seed 001: the electromagnetic ``c_md(w_F)``,
+frequency-dependent coefficients of the plant (Werner 2019: the electromagnetic ``c_md(w_F)``,
 ``d_m(w_F)``) make the state matrix ``A(Omega; w_F)`` (eq. 62) depend on the whirl frequency of the
 very mode one looks for. The paper iterates every mode on its own: start at ``w_F = Omega``, set
 ``w_F = |Im lambda_k|``, rebuild ``A``, take the eigenvalue nearest to ``lambda_k``, repeat. Its
@@ -14,7 +14,7 @@ result is the mode's fixed point ``|Im lambda_k(w_F)| = w_F``, which is found he
 2. on each branch ``g_k(w_F) = max(|Im lambda_k|, floor) - w_F`` is bracketed on the grid and its
    root refined (Brent; the branch is followed by nearest eigenvalue inside the bracket). Plain
    substitution reaches the same point where it converges, but cycles where ``|Im lambda|`` falls
-   steeply with ``w_F`` (near the slip resonance of seed 001's field damping) and can hop between
+   steeply with ``w_F`` (near the slip resonance of Werner 2019's field damping) and can hop between
    near-degenerate modes. Where a branch has several fixed points -- a mode that a low ``w_F``
    overdamps (``c tan(delta) / w_F`` grows without bound) is also consistent at the floor or at a
    heavily damped low frequency -- the highest is taken: loss-factor damping describes a mode

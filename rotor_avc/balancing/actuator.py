@@ -1,9 +1,9 @@
 """Balancer actuator: a correction that moves linearly, rate-limited, towards its target.
 
-The paper's balancer moves "as a linear function" over 0.2 s (seed 004 section 3). A new target
+The paper's balancer moves "as a linear function" over 0.2 s (Zhou & Shi 2001 section 3). A new target
 starts a straight move from the current position; its duration is the longer of the configured
 move time and ``distance / max_rate``. The position is a complex number in the balancer's own
-coordinates (``w_x + i w_z`` [m] for the seed-004 rotor, mass-radius [kg m] for seed 000); a
+coordinates (``w_x + i w_z`` [m] for the Zhou & Shi 2001 rotor, mass-radius [kg m] for Werner 2021); a
 target beyond ``max_radius`` is scaled back onto it (saturation is reported). The move's own
 inertial forces (``w'``, ``w''``) are neglected, as in the paper (digest 9 item 11).
 """

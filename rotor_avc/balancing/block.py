@@ -2,12 +2,12 @@
 
 One block with explicit state (``reset()``, ``step(sample) -> BalancerOutput``) that both the
 in-process loops and the balancer node run, once per sample (DESIGN.md section 3). The supervisor
-is the paper's four-step procedure (seed 004 section 3, Figure 4(g); digest 7):
+is the paper's four-step procedure (Zhou & Shi 2001 section 3, Figure 4(g); digest 7):
 
 1. ``estimate``: hold the balancer at its initial position and run the estimator until
    ``estimate_until_s``;
 2. then follow the law: at every change of its mode, command the target the law computes from the
-   *current* estimate (the paper moves once per mode); a law marked ``continuous`` (the seed-000
+   *current* estimate (the paper moves once per mode); a law marked ``continuous`` (the Werner 2021
    least-squares law, whose optimum moves with the speed) is re-targeted every sample;
 3. keep the estimator running throughout (the balancer's known forcing is in the regression).
 

@@ -1,6 +1,6 @@
-"""A balancing plane on the seed-000 rotor: point masses -> static and moment unbalance.
+"""A balancing plane on the Werner 2021 rotor: point masses -> static and moment unbalance.
 
-Seed 000's excitations (eqs. 13-14) are ``P_e = [1, -j, 0, ...]`` on ``(z_s, y_s)`` per kg m and
+Werner 2021's excitations (eqs. 13-14) are ``P_e = [1, -j, 0, ...]`` on ``(z_s, y_s)`` per kg m and
 ``P_alpha = [0, 0, 0, 1, -j, 0, ...]`` on ``(phi_sz, phi_sy)`` per kg m^2, the physical force
 being ``Re{Omega^2 P u e^{j theta}}``: a static amplitude ``u_e = m e e^{j phi}`` turns from +z
 towards +y. The rotor axis is ``x``; an axis point at axial position ``a`` (measured like the
@@ -41,7 +41,7 @@ def point_mass_unbalance(mass_kg: float, radius_m: float, angle_rad: float,
 class MachinePlane:
     """A one-plane balancer at axial position ``axial_m`` on a rotor spanning
     ``[rotor_min_m, rotor_max_m]``. Its position is the correction mass-radius ``c`` [kg m]
-    (complex, seed-000 phase convention), limited to ``max_mass_radius_kg_m``."""
+    (complex, Werner 2021 phase convention), limited to ``max_mass_radius_kg_m``."""
 
     axial_m: float
     rotor_min_m: float

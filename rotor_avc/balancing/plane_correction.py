@@ -1,4 +1,4 @@
-"""Optimal one-plane correction per speed on a LinearPlant machine (seed 004 eqs. 7-13, generalised).
+"""Optimal one-plane correction per speed on a LinearPlant machine (Zhou & Shi 2001 eqs. 7-13, generalised).
 
 With the objective channels' influence coefficients ``G(Omega)`` (columns static, moment; e.g.
 the bearing-housing velocities) and a plane whose correction ``c`` adds ``h_p c`` to the
@@ -15,7 +15,7 @@ Strategies (the ``mode`` label the balancer block switches on):
   the smaller response ``|y|`` (eq. 13 picks a kink of a piecewise-linear cost; where the modes
   separate, one unbalance type dominates each resonance and this is the paper's switch);
 * ``least_squares`` -- its generalisation where the modes couple (each mode excited by both
-  unbalance types, as on seed 000): ``c* = -h^H y0 / h^H h`` minimises ``|y|^2`` over every
+  unbalance types, as on Werner 2021): ``c* = -h^H y0 / h^H h`` minimises ``|y|^2`` over every
   correction, so ``|y(c*)| <= |y(c)|`` for ``c`` = 0 and both single-mode corrections. Near a
   resonance it cancels the dominant mode's modal force. It moves with the speed (``continuous``),
   the actuator limiting its rate.

@@ -10,7 +10,7 @@ tangential ``Omega'`` term), so that
   ``|A_obj u|`` (without).
 
 It exercises estimator, law, supervisor and actuator together on the machine model; what it
-leaves out is the transient of a resonance passage (the "sudden" free vibration of seed 004
+leaves out is the transient of a resonance passage (the "sudden" free vibration of Zhou & Shi 2001
 App. A), which a slow run-up keeps small and the time-domain simulator (rotor_avc.sim) includes.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The seed-004 regression ``y_j = x_j^T phi_j + e_j`` (paper eq. 2, digest 3.2 and 6).
+"""The Zhou & Shi 2001 regression ``y_j = x_j^T phi_j + e_j`` (paper eq. 2, digest 3.2 and 6).
 
 Known constants ``a1 = k/m``, ``a2 = c/m``, ``b0 = 1/m``, ``g0 = m/I_t``, ``g1 = m L^2/(2 I_t)``,
 ``g2 = I_p/I_t``; unknowns ``phi_1 = [b1, b2] = m_u [u_x, u_z] / m`` and ``phi_2 = [b3, b4] =
@@ -39,7 +39,7 @@ AXES = ("x", "both")
 
 @dataclass(frozen=True)
 class RigidSample:
-    """What the seed-004 estimator reads at one instant (SI units; rad for angles)."""
+    """What the Zhou & Shi 2001 estimator reads at one instant (SI units; rad for angles)."""
 
     t: float
     angle: float                 # phi

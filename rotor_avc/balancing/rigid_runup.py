@@ -1,4 +1,4 @@
-"""In-process run-up of the seed-004 rotor with its one-plane balancer (digest 10, "plant").
+"""In-process run-up of the Zhou & Shi 2001 rotor with its one-plane balancer (digest 10, "plant").
 
 The plant is paper eq. (1) in complex form (digest 3.1), ``R = R_X + i R_Z``, ``Theta = theta +
 i psi``, ``E(t) = (phi'^2 + i phi'') e^{-i phi}``, balancer at ``W = w_x + i w_z``::
@@ -34,7 +34,7 @@ from .regression import RigidSample
 
 @dataclass(frozen=True)
 class RigidRunup:
-    """One run-up scenario of the seed-004 rotor (SI units)."""
+    """One run-up scenario of the Zhou & Shi 2001 rotor (SI units)."""
 
     rotor: RigidRotor
     accel_rad_s2: float

@@ -1,4 +1,4 @@
-"""Recursive least squares of the imbalance (seed 004 eq. 3, "ordinary RLS", Ljung & Soderstrom).
+"""Recursive least squares of the imbalance (Zhou & Shi 2001 eq. 3, "ordinary RLS", Ljung & Soderstrom).
 
 :class:`RlsFilter` is the generic filter with the safeguards a practitioner needs (digest 6):
 

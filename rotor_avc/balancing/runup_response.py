@@ -1,4 +1,4 @@
-"""Closed-form run-up response of one mode at constant angular acceleration (seed 004 App. A).
+"""Closed-form run-up response of one mode at constant angular acceleration (Zhou & Shi 2001 App. A).
 
 Paper eq. (A1) per unit imbalance, zero initial state, spin from rest ``phi = alpha t^2 / 2 +
 omega0 t`` (``omega0`` generalises the paper's start from rest)::

@@ -1,4 +1,4 @@
-"""Optimal one-plane switching law of a rigid rotor during run-up (seed 004 eqs. 7-13).
+"""Optimal one-plane switching law of a rigid rotor during run-up (Zhou & Shi 2001 eqs. 7-13).
 
 The cost of eq. (10) at time ``t`` is ``|u_b1 + u_s1| M_1(t) + l_s |u_b2 + u_s2| M_2(t)``: the
 modal imbalance residuals of the translational (1) and conical (2) mode times their run-up
@@ -138,7 +138,7 @@ def eq13_minimiser(a: float, c: float, d: float, M1: float, M2: float) -> float:
 
 
 class RigidSwitchingLaw:
-    """The law the balancer block follows on the seed-004 rotor (``decide``/``corrections``).
+    """The law the balancer block follows on the Zhou & Shi 2001 rotor (``decide``/``corrections``).
 
     ``strategy``: ``none`` (Figure 4(a)), ``mode1`` / ``mode2`` (single-mode balancing, 4(c),
     4(e)) or ``optimal`` (the switching schedule, 4(g))."""

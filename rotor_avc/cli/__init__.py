@@ -27,7 +27,10 @@ COMMANDS = [
     "replay",                                                # bags into the ROS graph
     "bag",                                                   # bag info, check, recover
     "runup",                                                 # views of a recorded run-up
+    "config",                                                # the configuration language
 ]
+#: command -> its module, where they differ (``config.py`` would read as the config loader)
+MODULES = {"config": "config_cmd"}
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -41,7 +44,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         epilog="Run `rotor-avc COMMAND --help` for a command's options and an example.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS if only is None else [only]:
-        mod = importlib.import_module(f"{__name__}.{name.replace('-', '_')}")
+        mod = importlib.import_module(f"{__name__}.{MODULES.get(name, name.replace('-', '_'))}")
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP,
                            epilog="example:\n  " + mod.EXAMPLE,
                            formatter_class=argparse.RawDescriptionHelpFormatter)

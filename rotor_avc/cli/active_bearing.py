@@ -1,4 +1,4 @@
-"""``rotor-avc active-bearing``: seed 002's quantified force and phase, RMS and insertion loss.
+"""``rotor-avc active-bearing``: Sci. Rep. 2023's quantified force and phase, RMS and insertion loss.
 
 Prints the digest-section-11 table (force, phase, stroke, RMS before/after, IL per case speed),
 the speed where IL first drops below 0 dB and the piezo stroke-limit report; writes
@@ -18,7 +18,7 @@ from ..reports.active_bearing_files import write_active_bearing_files
 from .common import output_folder, speed_range_hz
 
 NAME = "active-bearing"
-HELP = ("Seed-002 active bearings: quantified actuator force and phase, RMS and insertion loss "
+HELP = ("Sci. Rep. 2023 active bearings: quantified actuator force and phase, RMS and insertion loss "
         "at the case speeds and over speed, IL zero crossing and piezo stroke limits.")
 EXAMPLE = "rotor-avc active-bearing active_bearing --out out/active_bearing"
 TWO_PI = 2 * np.pi

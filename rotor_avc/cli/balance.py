@@ -1,8 +1,8 @@
 """``rotor-avc balance``: a balanced run-up in-process, with and without balancing.
 
-Seed-004 rotor (``model: rigid_rotor``): the time-domain run-up of the paper's Figure 4 with the
+Zhou & Shi 2001 rotor (``model: rigid_rotor``): the time-domain run-up of the paper's Figure 4 with the
 config's strategy and with no balancing. A LinearPlant machine with a ``balancer:`` section
-(seed 000): the quasi-steady run-up (:mod:`rotor_avc.balancing.quasi_steady`) with every
+(Werner 2021): the quasi-steady run-up (:mod:`rotor_avc.balancing.quasi_steady`) with every
 correction strategy, and the per-resonance peak comparison.
 """
 from __future__ import annotations
@@ -34,7 +34,7 @@ def add_arguments(p) -> None:
                                     "e.g. balancer_rigid_rotor, balancer_foot_mount)")
     p.add_argument("--out", type=output_folder, default="out/balance", help="output folder")
     p.add_argument("--duration-s", type=nonnegative_float, default=None,
-                   help="shorten the seed-004 run-up (default: the config's duration)")
+                   help="shorten the Zhou & Shi 2001 run-up (default: the config's duration)")
 
 
 def run(args) -> int:

@@ -1,8 +1,8 @@
 """``rotor-avc demo``: the main job.
 
-1. The seed-000 analysis: pole tables of cases 1-3 (worst-case procedure, Figure 4) and their
+1. The Werner 2021 analysis: pole tables of cases 1-3 (worst-case procedure, Figure 4) and their
    unbalance FRFs (CSV + plots).
-2. The seed-000 machine as a ROS graph in lockstep -- plant, three foot controllers (case 3),
+2. The Werner 2021 machine as a ROS graph in lockstep -- plant, three foot controllers (case 3),
    recorder, each its own process (rotor_avc.nodes.graph; ``--composed``: one process) --
    through a stepped run-up that dwells at the six open-loop machine resonances, loops open
    (case 2) and closed (case 3), each recorded to ``bags/``, with the messages published and
@@ -34,7 +34,7 @@ from .compare import report
 from .common import output_folder
 
 NAME = "demo"
-HELP = ("The main job: seed-000 pole tables and FRFs, then the machine as a ROS graph (plant, "
+HELP = ("The main job: Werner 2021 pole tables and FRFs, then the machine as a ROS graph (plant, "
         "three foot controllers, recorder) through a stepped run-up with the loops open and "
         "closed, both recorded to bags/, compared with the models; prints the vibration "
         "reduction at each resonance and where the reports are.")
@@ -60,7 +60,7 @@ def run(args) -> int:
     make_folder(args.out)
     t0 = time.monotonic()
     summary = {"analysis": analysis(args.out / "analysis")}
-    print("\n== The seed-000 machine in the ROS graph: stepped run-up, loops open and closed")
+    print("\n== The Werner 2021 machine in the ROS graph: stepped run-up, loops open and closed")
     bags = {case: record(scenario, args.bags / f"demo_{case}.mcap", args.out / "logs" / case,
                          args.in_process, "composed" if args.composed else "processes")
             for case, scenario in RUNS.items()}
@@ -79,8 +79,8 @@ def run(args) -> int:
 
 
 def analysis(out: Path) -> dict:
-    """Pole tables and FRFs of cases 1-3 (the analysis part of the seed-000 paper)."""
-    print("== Seed 000 (Werner 2021): poles and unbalance FRFs, cases 1-3")
+    """Pole tables and FRFs of cases 1-3 (the analysis part of the Werner 2021 paper)."""
+    print("== Werner 2021 (Werner 2021): poles and unbalance FRFs, cases 1-3")
     make_folder(out)
     summary = {}
     for case in ANALYSIS_CASES:

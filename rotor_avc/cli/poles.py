@@ -10,7 +10,7 @@ from .common import nonnegative_float
 
 NAME = "poles"
 HELP = ("Closed-loop poles of a machine config at one rotor speed, with the loss-factor "
-        "damping procedure of its paper (analysis.pole_method: seed 000's worst case, the "
+        "damping procedure of its paper (analysis.pole_method: Werner 2021's worst case, the "
         "whirl-frequency iteration, ...), with frequencies and damping ratios.")
 EXAMPLE = "rotor-avc poles foot_mount_case3 --speed-hz 50 --json"
 

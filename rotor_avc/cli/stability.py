@@ -1,4 +1,4 @@
-"""``rotor-avc stability``: threshold of stability (seed 003's procedure) and parameter maps."""
+"""``rotor-avc stability``: threshold of stability (Werner 2017's procedure) and parameter maps."""
 from __future__ import annotations
 
 import json

@@ -1,5 +1,5 @@
 """``rotor-avc study``: controller gain sweeps -- resonance shifts, reductions, actuator forces
-(seed 001 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page; ``rotor-avc study MODE
+(Werner 2019 Sec. 4, Figs. 5-13), as CSV, PNG and an interactive HTML page; ``rotor-avc study MODE
 TARGET``: the study modes of :data:`MODES` (``robustness``: the Monte-Carlo study of
 :mod:`rotor_avc.cli.robustness`; ``strategies``: the vibration-control strategies compared,
 :mod:`rotor_avc.cli.strategies`)."""

@@ -1,4 +1,4 @@
-"""Closed-loop synchronous (unbalance) response over speed (seed 000 eqs. 41-42, A2-A4).
+"""Closed-loop synchronous (unbalance) response over speed (Werner 2021 eqs. 41-42, A2-A4).
 
 At each rotor speed ``Omega`` the excitation phasor ``F(Omega)`` drives the closed loop at
 ``s = j Omega`` with the damping of forced response, ``w_F = max(Omega, floor)`` (DESIGN.md 2)::

@@ -1,13 +1,13 @@
 """The continuous closed loop of a plant with per-foot controllers G_c(s).
 
 Each controlled actuator ``i`` applies ``f_i = -H_i(s) s_i^T q`` with ``H_i = s^k G_c,i``
-(seed 000 eqs. 6-7, 15; the reconstructed eq. 31 ``T = sum G_c P_a s^T``). Two exact
+(Werner 2021 eqs. 6-7, 15; the reconstructed eq. 31 ``T = sum G_c P_a s^T``). Two exact
 representations are provided:
 
 * :meth:`ClosedLoop.dynamic_stiffness` -- ``Z(s) = s^2 M + s (D(w_F) + Omega G1) + C + sum_i
   H_i(s) P_i s_i^T`` for the frequency domain (the compact form of eq. 41);
 * :meth:`ClosedLoop.state_space` -- the polynomial part ``h2 s^2 + h1 s + h0`` of every ``H_i``
-  folded into ``M, D, C`` (seed 000 Figure 5 / eq. 49, which :meth:`embedded_matrices` returns)
+  folded into ``M, D, C`` (Werner 2021 Figure 5 / eq. 49, which :meth:`embedded_matrices` returns)
   plus states for the strictly proper remainder, which acts on the foot displacement.
 """
 from __future__ import annotations
@@ -69,7 +69,7 @@ class ClosedLoop:
 
     # -- second-order / state space -----------------------------------------------------------
     def embedded_matrices(self, speed: float, w_F: float):
-        """``(M~, D~, C~)`` of seed 000 Figure 5 / eq. 49: the closed loop as a second-order
+        """``(M~, D~, C~)`` of Werner 2021 Figure 5 / eq. 49: the closed loop as a second-order
         system ``M~ q'' + D~ q' + C~ q = f``. Refused (the table's "--" cells) when a controller
         needs states of its own, e.g. I on displacement."""
         for act, ctrl, _ in self._pairs():

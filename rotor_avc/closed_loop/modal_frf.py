@@ -1,7 +1,7 @@
 """Forced response over speed by one modal decomposition (DESIGN.md section 2).
 
 With the damping of forced response at ``w_F = Omega`` the dynamic stiffness at ``s = j Omega``
-of a plant without speed terms, with controllers that embed into ``M, D, C`` (seed 000 Figure 5,
+of a plant without speed terms, with controllers that embed into ``M, D, C`` (Werner 2021 Figure 5,
 eq. 49: ``H = h0 + h1 s + h2 s^2``), is a quadratic matrix polynomial in the speed::
 
     Z(Omega) = K0 + Omega K1 + Omega^2 K2

@@ -18,7 +18,7 @@ compared with ``sum_j G_j u_j + sum_a T_a(Omega) F_a``: its forces' measured 1x 
 the closed-loop transfer ``T_a`` from actuator ``a`` (:mod:`rotor_avc.analysis.transfer`, the
 same force path as a test force); the forces themselves are inputs, reported, not rated.
 Models at the measured speeds: the continuous loop
-(:func:`rotor_avc.closed_loop.frf.unbalance_frf`, seed 000 eqs. 41-42) and the sampled loop
+(:func:`rotor_avc.closed_loop.frf.unbalance_frf`, Werner 2021 eqs. 41-42) and the sampled loop
 (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.unbalance_frf`, what a lockstep run
 reproduces), the foot accelerations added as outputs of the plant.
 
@@ -42,7 +42,7 @@ sign error (180 degrees) or a delay fails even where the magnitude agrees:
 * dead channels: a recorded channel with no response (1x more than :data:`DEAD_DB` below the model
   at every checked point, or an H1 of zero over the test band) where the model has one (0).
 
-Why these tolerances: a lockstep bag of seed 000 case 3 (5 kHz) meets the sampled loop within
+Why these tolerances: a lockstep bag of Werner 2021 case 3 (5 kHz) meets the sampled loop within
 0.07 dB and 0.5 degrees (1x) and 0.09 dB / 0.9 degrees RMS (broadband, 3 s at 20 Hz); the
 phase tolerances match the magnitude ones (0.5 dB is a 6 % vector error, 3.4 degrees; at a
 resonance a 1 % frequency error moves the phase by about 0.01 / zeta rad, 10 degrees at 5 %

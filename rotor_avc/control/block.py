@@ -4,7 +4,7 @@ At sample ``k`` (DESIGN.md section 3) the block takes the foot's measured signal
 ``feedback`` kind: displacement, velocity or acceleration) and returns the actuator force held
 over ``[t_k, t_k+1)``::
 
-    f_k = -lim( G_d(z) * signal_{k - d} )        (seed 000 eq. 7: f_a = -G_c(s) s^k z_a)
+    f_k = -lim( G_d(z) * signal_{k - d} )        (Werner 2021 eq. 7: f_a = -G_c(s) s^k z_a)
 
 with ``G_d`` the discretised ``G_c`` (:mod:`rotor_avc.control.discretize`), ``d`` extra
 ``delay_samples``, and ``lim`` the force and rate limits with anti-windup
@@ -35,7 +35,7 @@ Faults never reach the filter (the state stays finite and nothing latches):
       sample_rate_hz: 5000.0
       method: tustin              # tustin | zoh | foh
       prewarp_hz: 100.0           # tustin only, below Nyquist
-    controllers:
+    controllers:                  # per actuator (rotor_avc.control.spec.ControllerSettings)
       DL: {type: I, feedback: acceleration, ki: 1.4e+5,
            force_limit_n: 2000.0, rate_limit_n_per_s: 1.0e+6,
            anti_windup: back_calculation, back_calculation_gain: 50.0, delay_samples: 0,
@@ -50,13 +50,8 @@ from collections import deque
 from ..errors import ConfigError, ModelError
 from .discretize import DiscreteTf, check_period, discretize_controller
 from .filter import IirFilter
-from .spec import FEEDBACK_UNITS as UNITS
-from .limits import ANTI_WINDUP, OutputLimits, check_anti_windup, limited_step
-
-#: default plausible range ``|signal| <= limit`` per feedback kind (SI): far beyond what a foot of
-#: a running machine sees (1 m; 100 m/s; 1e5 m/s^2 = 10,000 g, beyond most accelerometers'
-#: range), so only a broken sensor or a corrupted message gets there
-PLAUSIBLE_LIMITS = {"displacement": 1.0, "velocity": 100.0, "acceleration": 1.0e5}
+from .limits import OutputLimits, check_anti_windup, limited_step
+from .spec import FEEDBACK_UNITS as UNITS, PLAUSIBLE_LIMITS, ControllerSettings, controller_settings
 SAFE_OUTPUTS = ("hold", "zero")
 #: the fault counters of a block (:attr:`DigitalController.faults`)
 FAULT_KINDS = ("implausible", "filter_reset")
@@ -93,6 +88,24 @@ class DigitalController:
         self.faults = dict.fromkeys(FAULT_KINDS, 0)
         #: samples answered at the force limit (a pure integrator can hold there: leak_hz)
         self.saturated_samples = 0
+
+    @classmethod
+    def from_settings(cls, tf: DiscreteTf, entry: ControllerSettings,
+                      name: str = "") -> "DigitalController":
+        """The block of a ``controllers:`` entry around its discretised ``G_c``: anti-windup
+        ``back_calculation`` when a limit is given (else ``none``) and the plausible range of the
+        feedback kind (:data:`PLAUSIBLE_LIMITS`) unless the entry says otherwise."""
+        limited = entry.force_limit_n is not None or entry.rate_limit_n_per_s is not None
+        default_anti_windup = "back_calculation" if limited else "none"
+        return cls(tf, force_limit_n=entry.force_limit_n,
+                   rate_limit_n_per_s=entry.rate_limit_n_per_s,
+                   anti_windup=entry.anti_windup or default_anti_windup,
+                   back_calculation_gain=entry.back_calculation_gain,
+                   delay_samples=entry.delay_samples,
+                   measurement_limit=(PLAUSIBLE_LIMITS[tf.feedback]
+                                      if entry.measurement_limit is None
+                                      else entry.measurement_limit),
+                   name=name)
 
     @property
     def safe_output(self) -> str:
@@ -220,31 +233,22 @@ def sampling(machine, sample_period_s: float | None = None):
 
 def build_digital_controllers(machine, sample_period_s: float | None = None
                               ) -> dict[str, DigitalController]:
-    """One :class:`DigitalController` per controlled actuator of ``machine`` (config order)."""
+    """One :class:`DigitalController` per controlled actuator of ``machine`` (config order), set
+    up by the actuator's ``controllers:`` entry (:meth:`DigitalController.from_settings`; a
+    controller given in code without an entry gets the defaults)."""
     T, method, prewarp = sampling(machine, sample_period_s)
     feet = machine.config.section("controllers", {})
+    entries = controller_settings(machine.config)
     blocks = {}
     for act_id, ctrl in machine.controllers.items():
-        sec = feet.section(act_id)
+        sec = feet.section(act_id, {})
         try:
             tf = discretize_controller(ctrl, T, method, prewarp)
         except ModelError as exc:
             raise ConfigError(sec.path, str(exc), source=sec.source) from None
-        opt = lambda key, **kw: sec.number(key, None, **kw) if sec.has(key) else None  # noqa: E731
-        force_limit = opt("force_limit_n", positive=True, unit="N")
-        rate_limit = opt("rate_limit_n_per_s", positive=True, unit="N/s")
-        kb = opt("back_calculation_gain", positive=True, unit="1/s")
-        measurement_limit = (opt("measurement_limit", positive=True, unit=UNITS[ctrl.feedback])
-                             or PLAUSIBLE_LIMITS[ctrl.feedback])
-        limited = force_limit is not None or rate_limit is not None
-        anti_windup = sec.choice("anti_windup", ANTI_WINDUP,
-                                 default="back_calculation" if limited else "none")
-        delay = sec.integer("delay_samples", 0, minimum=0, maximum=1000)
         try:
-            blocks[act_id] = DigitalController(
-                tf, force_limit_n=force_limit, rate_limit_n_per_s=rate_limit,
-                anti_windup=anti_windup, back_calculation_gain=kb, delay_samples=delay,
-                measurement_limit=measurement_limit, name=act_id)
+            blocks[act_id] = DigitalController.from_settings(
+                tf, entries.get(act_id, ControllerSettings()), name=act_id)
         except ModelError as exc:
             key = "back_calculation_gain" if "back_calculation_gain" in str(exc) else "anti_windup"
             raise sec.error(key, str(exc)) from None

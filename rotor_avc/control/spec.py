@@ -1,12 +1,13 @@
-"""Continuous controller specifications G_c(s) (seed 000 eq. 6; seed 001 Table 1).
+"""Continuous controller specifications G_c(s) (Werner 2021 eq. 6; Werner 2019 Table 1) and the
+declaration of a ``controllers:`` entry (:class:`ControllerSettings`).
 
-A foot controller applies ``f_a = -G_c(s) . s^k z_a`` (negative feedback, seed 000 eq. 7) to the
+A foot controller applies ``f_a = -G_c(s) . s^k z_a`` (negative feedback, Werner 2021 eq. 7) to the
 absolute vertical motion ``z_a`` of its foot, where ``k`` = 0, 1, 2 for displacement, velocity
 and acceleration feedback. :class:`ContinuousController` holds ``G_c`` as polynomials in ``s``
 (highest power first, as scipy.signal does) together with the feedback kind.
 
 The *law on displacement* ``H(s) = s^k G_c(s)`` is what the continuous analyses use: its
-polynomial part of degree <= 2 folds into M, D, C (seed 000 Figure 5, eq. 49) and its strictly
+polynomial part of degree <= 2 folds into M, D, C (Werner 2021 Figure 5, eq. 49) and its strictly
 proper remainder needs controller states.
 
 Ideal (improper) PD/PID controllers exist in the papers' continuous analyses; they can be built
@@ -22,7 +23,9 @@ from functools import cached_property
 import numpy as np
 
 from ..config import Section
-from ..errors import ConfigError, ModelError
+from ..errors import ModelError
+from ..settings import read_part, read_settings, setting
+from .limits import ANTI_WINDUP
 
 FEEDBACK_ORDER = {"displacement": 0, "velocity": 1, "acceleration": 2}
 FEEDBACK_UNITS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
@@ -100,7 +103,7 @@ class ContinuousController:
         Returns ``(h, rem_num, rem_den)`` with ``h = [h0, h1, h2]``; common factors of ``s``
         between remainder and denominator (an integrator meeting a differentiated signal, as in
         I control on acceleration) are cancelled exactly. Raises when the polynomial part has
-        degree > 2 (seed 000 Figure 5's impossible cells: a force on jerk).
+        degree > 2 (Werner 2021 Figure 5's impossible cells: a force on jerk).
         """
         num = np.concatenate([self.num, np.zeros(self.order)])
         quot, rem = np.polydiv(num, self.den)
@@ -189,49 +192,130 @@ def lead_lag_controller(gain: float, zero_hz: float, pole_hz: float,
 CONTROLLER_KEYS = {
     "P": ("kp",), "I": ("ki",), "PI": ("kp", "ki"), "PD": ("kp", "kd"),
     "PID": ("kp", "ki", "kd"), "lead_lag": ("gain", "zero_hz", "pole_hz"), "tf": ("num", "den"),
+    "none": (),
 }
 OPTIONAL_KEYS = {"I": ("leak_hz",), "PI": ("leak_hz",), "PD": ("derivative_filter_s",),
-                 "PID": ("derivative_filter_s", "leak_hz"), "lead_lag": (), "P": (), "tf": ()}
+                 "PID": ("derivative_filter_s", "leak_hz"), "lead_lag": (), "P": (), "tf": (),
+                 "none": ()}
+#: keys of the digital block (:mod:`rotor_avc.control.block`), allowed next to every structure
+BLOCK_KEYS = ("force_limit_n", "rate_limit_n_per_s", "anti_windup", "back_calculation_gain",
+              "delay_samples", "measurement_limit")
+#: default plausible range ``|signal| <= measurement_limit`` per feedback kind (SI): far beyond
+#: what a foot of a running machine sees (1 m; 100 m/s; 1e5 m/s^2 = 10,000 g, beyond most
+#: accelerometers' range), so only a broken sensor or a corrupted message gets there
+PLAUSIBLE_LIMITS = {"displacement": 1.0, "velocity": 100.0, "acceleration": 1.0e5}
+
+_PER_KIND = "on displacement, velocity, acceleration feedback"
+_PLAUSIBLE = ", ".join(f"{v:g} {FEEDBACK_UNITS[k]}" for k, v in PLAUSIBLE_LIMITS.items())
 
 
-def controller_from_config(sec: Section, extra_keys: tuple[str, ...] = ()) -> ContinuousController | None:
-    """Build a controller from a config mapping such as
-    ``{type: I, feedback: acceleration, ki: 1.4e5}`` or ``{type: tf, num: [...], den: [...],
-    feedback: velocity}``. ``type: none`` (or a missing ``type``) means no controller.
+# -- the ``controllers:`` section ---------------------------------------------------------------
+@dataclass(frozen=True)
+class ControllerSettings:
+    """``controllers.<actuator id>``: one actuator's ``G_c(s)`` (Werner 2021 eq. 6; Werner 2019
+    Table 1) and the digital block that runs it (:mod:`rotor_avc.control.block`).
 
-    ``extra_keys`` are keys a caller reads itself (limits, discretisation) and that are allowed
-    here. Errors name the field and the fix.
+    The force is ``f_a = -G_c(s) s^k z_a`` (Werner 2021 eq. 7), so the unit of ``G_c`` and of its
+    gains depends on the feedback kind: N per unit of the measured signal (m, m/s or m/s^2).
+    Which gains a structure needs: :data:`CONTROLLER_KEYS` (:data:`OPTIONAL_KEYS` may be added).
+    ``leak_hz``, ``derivative_filter_s``, ``lead_lag`` and the block's keys are additions of this
+    package (the papers' controllers are ideal and continuous).
     """
-    kind = sec.choice("type", STRUCTURES, default="none")
-    if kind == "none":
-        sec.check_keys(("type", "feedback") + extra_keys)
-        return None
-    feedback = sec.choice("feedback", FEEDBACK_ORDER)
-    required = CONTROLLER_KEYS[kind]
-    optional = OPTIONAL_KEYS[kind]
-    sec.check_keys(("type", "feedback") + required + optional + extra_keys)
-    try:
-        if kind == "tf":
-            num = sec.number_list("num", min_length=1, nonempty_leading=True)
-            den = sec.number_list("den", min_length=1, nonempty_leading=True)
-            return ContinuousController(np.array(num), np.array(den), feedback, "tf")
-        g = {k: sec.number(k) for k in required}
-        leak = sec.number("leak_hz", None, positive=True, unit="Hz") if sec.has("leak_hz") else None
-        tau = (sec.number("derivative_filter_s", positive=True, unit="s")
-               if sec.has("derivative_filter_s") else None)
-        if kind == "P":
-            return p_controller(g["kp"], feedback)
-        if kind == "I":
-            return i_controller(g["ki"], feedback, leak)
-        if kind == "PI":
-            return pi_controller(g["kp"], g["ki"], feedback, leak)
-        if kind == "PD":
-            return pd_controller(g["kp"], g["kd"], feedback, tau)
-        if kind == "PID":
-            return pid_controller(g["kp"], g["ki"], g["kd"], feedback, tau, leak)
-        for key in ("zero_hz", "pole_hz"):
-            if g[key] <= 0:
-                raise sec.error(key, f"must be > 0 (got {g[key]})", fix="give a frequency in Hz")
-        return lead_lag_controller(g["gain"], g["zero_hz"], g["pole_hz"], feedback)
-    except ModelError as exc:
-        raise ConfigError(sec.path, str(exc), source=sec.source) from None
+
+    type: str = setting("none", "structure of G_c(s) (Werner 2019 Table 1; `tf`: the general "
+                        "num/den of Werner 2021 eq. 6); `none`: no controller (the block's keys "
+                        "are still checked)", choices=STRUCTURES)
+    feedback: str | None = setting(None, "the measured foot signal: z_a, s z_a or s^2 z_a "
+                                   "(Werner 2021 eq. 7, k = 0, 1, 2); required unless type none",
+                                   choices=tuple(FEEDBACK_ORDER))
+    kp: float | None = setting(None, f"proportional gain K_P (P, PI, PD, PID): N/m, N s/m, kg "
+                               f"{_PER_KIND}")
+    ki: float | None = setting(None, f"integral gain K_I, G_c = K_I/s (I, PI, PID): N/(m s), N/m, "
+                               f"N s/m {_PER_KIND}")
+    kd: float | None = setting(None, f"derivative gain K_D, G_c = K_D s (PD, PID): N s/m, kg, "
+                               f"N s^3/m {_PER_KIND}")
+    leak_hz: float | None = setting(None, "I, PI, PID: leaky integrator 1/(s + 2 pi leak_hz) "
+                                    "instead of 1/s", unit="Hz", positive=True)
+    derivative_filter_s: float | None = setting(None, "PD, PID: derivative K_D s/(tau s + 1); "
+                                                "without it the ideal (improper) K_D s",
+                                                unit="s", positive=True)
+    gain: float | None = setting(None, f"lead_lag: K of K (s/w_z + 1)/(s/w_p + 1): N/m, N s/m, "
+                                 f"kg {_PER_KIND}")
+    zero_hz: float | None = setting(None, "lead_lag: zero w_z/(2 pi)", unit="Hz", positive=True)
+    pole_hz: float | None = setting(None, "lead_lag: pole w_p/(2 pi)", unit="Hz", positive=True)
+    num: tuple[float, ...] | None = setting(None, "tf: numerator of G_c(s), highest power of s "
+                                            "first (G_c in N/m, N s/m, kg " + _PER_KIND + ")",
+                                            min_length=1)
+    den: tuple[float, ...] | None = setting(None, "tf: denominator of G_c(s), highest power of s "
+                                            "first", min_length=1)
+    force_limit_n: float | None = setting(None, "the force is saturated at +-limit (none: no limit)",
+                                          unit="N", positive=True)
+    rate_limit_n_per_s: float | None = setting(None, "largest rate of change of the force (none: "
+                                               "no limit)",
+                                               unit="N/s", positive=True)
+    anti_windup: str | None = setting(None, "default: `back_calculation` with a force or rate "
+                                      "limit, else `none` (rotor_avc/control/limits.py)",
+                                      choices=ANTI_WINDUP)
+    back_calculation_gain: float | None = setting(None, "K_b = 1/tracking time constant of "
+                                                  "`back_calculation`, at most the sample rate "
+                                                  "(default: the sample rate)", unit="1/s",
+                                                  positive=True)
+    delay_samples: int = setting(0, "extra delay of the measured signal, in samples", minimum=0,
+                                 maximum=1000)
+    measurement_limit: float | None = setting(None, "a measurement beyond +-limit is rejected: "
+                                              f"m, m/s, m/s^2 {_PER_KIND} (default "
+                                              f"{_PLAUSIBLE})", positive=True)
+
+    def check(self, sec: Section) -> None:
+        needed = CONTROLLER_KEYS[self.type]
+        sec.check_keys(("type", "feedback") + needed + OPTIONAL_KEYS[self.type] + BLOCK_KEYS)
+        for key in (("feedback",) + needed if self.type != "none" else ()):
+            if getattr(self, key) is None:
+                raise sec.error(key, "missing", fix=f"add `{key}:` to {sec.path} (type "
+                                f"{self.type} needs " + ", ".join(("feedback",) + needed) + ")")
+        if self.type == "tf":
+            for key in ("num", "den"):
+                sec.number_list(key, nonempty_leading=True)      # refuses a leading zero
+
+    def continuous(self) -> ContinuousController | None:
+        """This entry's ``G_c(s)`` (``None`` for type none)."""
+        fb, leak, tau = self.feedback, self.leak_hz, self.derivative_filter_s
+        if self.type == "none":
+            return None
+        if self.type == "tf":
+            return ContinuousController(np.array(self.num), np.array(self.den), fb, "tf")
+        if self.type == "P":
+            return p_controller(self.kp, fb)
+        if self.type == "I":
+            return i_controller(self.ki, fb, leak)
+        if self.type == "PI":
+            return pi_controller(self.kp, self.ki, fb, leak)
+        if self.type == "PD":
+            return pd_controller(self.kp, self.kd, fb, tau)
+        if self.type == "PID":
+            return pid_controller(self.kp, self.ki, self.kd, fb, tau, leak)
+        return lead_lag_controller(self.gain, self.zero_hz, self.pole_hz, fb)
+
+
+#: the declaration of one ``controllers:`` entry (for the configuration reference and schemas)
+CONTROLLER_SETTINGS = ControllerSettings
+
+
+@dataclass(frozen=True)
+class MachineControllers:
+    """The top-level ``controllers:`` key of a machine config: an entry per actuator id."""
+
+    controllers: dict[str, ControllerSettings] | None = setting(
+        None, "G_c(s) and digital block per actuator id (none: all loops open)")
+
+
+def controller_settings(cfg: Section) -> dict[str, ControllerSettings]:
+    """``controllers:`` of a machine config, validated: actuator id -> its entry (config order)."""
+    return read_part(MachineControllers, cfg).controllers or {}
+
+
+def controller_from_config(sec: Section) -> ContinuousController | None:
+    """The ``G_c(s)`` of one entry such as ``{type: I, feedback: acceleration, ki: 1.4e5}`` or
+    ``{type: tf, num: [...], den: [...], feedback: velocity}``, validated as a
+    :class:`ControllerSettings` (errors name the field and the fix); ``None`` for type none."""
+    return read_settings(ControllerSettings, sec).continuous()

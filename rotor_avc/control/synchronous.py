@@ -1,10 +1,10 @@
-"""Synchronous (1x) force generator locked to the rotor angle: seed 002's quantified force and
+"""Synchronous (1x) force generator locked to the rotor angle: Sci. Rep. 2023's quantified force and
 phase as a block (digest 10), for the in-process loop and a controller node.
 
 The feed-forward of :mod:`rotor_avc.analysis.active_bearing_ff` gives, per speed, the complex
 actuator forces per unit unbalance ``T_i(Omega)`` [N per kg m]; the wanted force is
 ``f_i(t) = Re{T_i(Omega) u e^{j theta(t)}}`` with the shaft angle ``theta`` and the unbalance
-``u = m_o e e^{j phi}`` [kg m] (configured, or later an RLS estimate, seed 004). The block looks
+``u = m_o e e^{j phi}`` [kg m] (configured, or later an RLS estimate, Zhou & Shi 2001). The block looks
 ``T`` up in a table over speed (linear interpolation of real and imaginary parts) and plays it
 against the measured shaft angle; outside the table it commands zero force and says so. The
 table is interpolated as ``T / Omega^2`` (the unbalance force grows with ``Omega^2``, so this

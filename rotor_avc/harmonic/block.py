@@ -23,8 +23,8 @@ disturbance model ``H(Omega)`` (sensor response per unit excitation) the phasors
 :mod:`.laws` runs on ``K``. At a constant speed this is the same loop (for ``K`` invertible,
 ``U+ = U - mu pinv(G^) E``, Newton), but the estimate is speed-invariant: during a run-up the
 phasors follow the scheduled ``G`` and ``H`` through every resonance (recomputed every
-``refresh_samples`` samples), instead of having to be re-learnt -- the seed-004 balancer plane
-(an RLS estimate of the unbalance) and the seed-002 quantified force, in harmonic form.
+``refresh_samples`` samples), instead of having to be re-learnt -- the Zhou & Shi 2001 balancer plane
+(an RLS estimate of the unbalance) and the Sci. Rep. 2023 quantified force, in harmonic form.
 
 Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` is kept within
 ``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by

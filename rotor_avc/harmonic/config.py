@@ -1,44 +1,17 @@
-"""The ``harmonic:`` section of a machine config: adaptive harmonic control, validated.
+"""The ``harmonic:`` section of a machine config: adaptive harmonic control, declared.
 
-::
+:data:`HARMONIC_SETTINGS` declares every key (type, default, bounds, unit, meaning; the reference:
+``rotor_avc.settings._rows(HARMONIC_SETTINGS, "harmonic")``). For example::
 
     harmonic:
-      actuators: [DL, DR, NL]              # plant actuators driven (default: all)
-      sensors: [bearing_D_vz, bearing_N_vz]   # measured quantities (plant outputs, foot signals)
-      harmonics: [1]                       # orders of the shaft speed (1x, 2x, ...)
-      law: newton                          # steepest_descent | newton | wls
-      gain: 0.5                            # adaptation gain per update (dimensionless), or
-                                           # auto: per speed from the loop analysis
-      adapt_in: forces                     # forces | excitations (1x: adapt the unbalance
-      refresh_samples: 0                   #   estimate; phasors re-scheduled every n samples)
-      feedforward: quasi_static            # quasi_static | dynamic (adapt_in excitations: the
-      feedforward_effort: 1.0e-2           #   internal loop of .internal_model; its LQ weight)
-      effort_weight: 0.0                   # wls: effort penalty relative to |G|^2
-      leakage: 0.0                         # per update, in [0, 1)
-      sensor_weights: [1.0, 1.0]           # optional, one per sensor
-      update_every_samples: 0              # 0: once per revolution
-      force_limit_n: 5000.0                # optional peak force per actuator
-      rate_limit_n_per_s: 1.0e+7           # optional peak force slope per actuator
-      min_speed_hz: 2.0                    # off below
-      start_s: 0.0                         # switch-on time
-      influence:                           # the speed schedule from the model
-        rel_step: 0.005                    # relative speed step of the table
-        phase_error_deg: 0.0               # deliberate estimate error (robustness studies)
-        magnitude_factor: 1.0
-      identification:                      # present: online RLS of the influence matrix
-        forgetting: 0.98
-        dither_n: 0.0                      # dither phasor magnitude (N), random phase
-        min_change_n: 1.0e-3               # smaller changes (N) are not learnt from,
-        min_rel_change: 0.1                # nor changes below this fraction of the phasors
-        seed: 0
-      runout:                              # optional simulated sensor runout (.runout)
+      actuators: [DL, DR, NL]                 # default: all the plant's actuators
+      sensors: [bearing_D_vz, bearing_N_vz]
+      harmonics: [1]
+      law: newton
+      gain: 0.15                              # or auto
+      identification: {forgetting: 0.98}      # present: online RLS of the influence matrix
+      runout:                                 # optional simulated sensor runout (.runout)
         - {sensor: bearing_D_vz, order: 2, magnitude: 1.0e-4, phase_deg: 0.0}
-      fallback:
-        mode: freeze                       # freeze | fade
-        divergence_factor: 100.0           # growth of |E| / Omega^2 since switch-on = diverging
-        poor_residual: .inf                # identification residual that counts as poor
-        patience: 3                        # updates a poor residual may last
-        fade_updates: 10
 
 ``gain: auto`` picks, at speeds 8 % apart, the largest of :data:`AUTO_GAINS` whose exact
 one-revolution loop (:func:`rotor_avc.harmonic.lti.gain_schedule`, on the unperturbed
@@ -52,97 +25,229 @@ controllers closed (:mod:`rotor_avc.harmonic.influence`), on the run's damping r
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
+from ..config import Section
 from ..errors import ModelError
+from ..settings import read_settings, setting
 from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings
 from .influence import model_schedule, schedule_speeds
 from .laws import LAWS
-from .runout import WithRunout, runout_terms
+from .runout import WithRunout
 
-HARMONIC_KEYS = ("actuators", "sensors", "harmonics", "law", "gain", "adapt_in", "refresh_samples",
-                 "feedforward", "feedforward_effort",
-                 "effort_weight", "leakage",
-                 "sensor_weights", "update_every_samples", "force_limit_n", "rate_limit_n_per_s",
-                 "min_speed_hz", "start_s", "influence", "identification", "fallback", "runout")
-INFLUENCE_KEYS = ("rel_step", "phase_error_deg", "magnitude_factor")
-IDENTIFICATION_KEYS = ("forgetting", "dither_n", "min_change_n", "min_rel_change", "seed")
-FALLBACK_KEYS = ("mode", "divergence_factor", "poor_residual", "patience", "fade_updates")
-DEFAULT_REL_STEP = 0.005
 FEEDFORWARDS = ("quasi_static", "dynamic")
 #: ``gain: auto``: candidate gains and the relative speed step of the analysed speeds
 AUTO_GAINS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5)
 AUTO_GAIN_STEP = 0.08
 
 
-def _names(sec, key, known, default=None):
-    value = sec.raw(key, default)
-    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
-        raise sec.error(key, f"must be a non-empty list of names (got {value!r})",
+@dataclass(frozen=True)
+class InfluenceSettings:
+    """``harmonic.influence``: the influence matrix's speed schedule from the model
+    (:mod:`.influence`)."""
+
+    rel_step: float = setting(0.005, "relative speed step of the table", positive=True,
+                              maximum=0.5)
+    phase_error_deg: float = setting(0.0, "deliberate phase error of the estimate (robustness "
+                                     "studies)", unit="deg")
+    magnitude_factor: float = setting(1.0, "deliberate magnitude factor of the estimate",
+                                      positive=True)
+
+
+@dataclass(frozen=True)
+class IdentificationSettings:
+    """``harmonic.identification``: online RLS of the influence matrix (:mod:`.identification`)."""
+
+    forgetting: float = setting(0.98, "RLS forgetting factor", positive=True, maximum=1.0)
+    dither_n: float = setting(0.0, "dither phasor magnitude (random phase)", unit="N",
+                              nonnegative=True)
+    min_change_n: float = setting(1e-3, "smaller phasor changes are not learnt from", unit="N",
+                                  positive=True)
+    min_rel_change: float = setting(0.1, "nor changes below this fraction of the phasors",
+                                    nonnegative=True, maximum=0.99)
+    seed: int = setting(0, "random seed of the dither", minimum=0)
+
+
+@dataclass(frozen=True)
+class FallbackSettings:
+    """``harmonic.fallback``: what the block does when its loop diverges or its estimate is poor
+    (:mod:`.block`)."""
+
+    mode: str = setting("freeze", "`freeze` (hold the phasors) or `fade` (fade them out)",
+                        choices=FALLBACKS)
+    divergence_factor: float = setting(100.0, "growth of the error magnitude over Omega^2 since "
+                                       "switch-on that counts as diverging", minimum=1.0)
+    poor_residual: float | None = setting(None, "identification prediction residual that counts "
+                                          "as poor (none: never)", positive=True)
+    patience: int = setting(3, "updates a poor residual may last", minimum=1)
+    fade_updates: int = setting(10, "updates a fade lasts", minimum=1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunoutEntry:
+    """An entry of ``harmonic.runout``: ``Re{R_h e^{j h theta}}`` added to one sensor's signal
+    (:mod:`.runout`)."""
+
+    sensor: str = setting(doc="one of the section's `sensors`")
+    order: int = setting(1, "order h of the shaft angle", minimum=1)
+    magnitude: float = setting(doc="magnitude of R_h, in the sensor's unit", nonnegative=True)
+    phase_deg: float = setting(0.0, "arg R_h", unit="deg")
+
+    @property
+    def amplitude(self) -> complex:
+        """``R_h``."""
+        phase = math.radians(self.phase_deg)
+        return self.magnitude * complex(math.cos(phase), math.sin(phase))
+
+
+@dataclass(frozen=True, kw_only=True)
+class HarmonicControlSettings:
+    """``harmonic:`` of a machine config: actuator forces locked to the shaft angle, adapted
+    once per revolution (:mod:`.block`, laws :mod:`.laws`)."""
+
+    actuators: tuple[str, ...] | None = setting(None, "plant actuators driven (default: all)",
+                                                min_length=1)
+    sensors: tuple[str, ...] = setting(doc="measured quantities: plant outputs and foot "
+                                       "signals (rotor_avc.sim.stepper.MeasurementLayout)",
+                                       min_length=1)
+    harmonics: tuple[float, ...] = setting((1.0,), "orders of the shaft speed (1x, 2x, ...): "
+                                           "distinct integers >= 1", min_length=1)
+    law: str = setting("newton", "update law", choices=LAWS)
+    gain: float | str = setting(0.5, "adaptation gain per update, or `auto`: per speed from the "
+                                "loop analysis", positive=True, choices=("auto",))
+    adapt_in: str = setting("forces", "adapt the phasors (`forces`) or, at 1x, an estimate of "
+                            "the excitations (`excitations`)", choices=ADAPT_IN)
+    refresh_samples: int = setting(0, "adapt_in excitations: phasors re-scheduled every n "
+                                   "samples (0: at the updates only)", minimum=0)
+    feedforward: str = setting("quasi_static", "adapt_in excitations: `dynamic` drives the "
+                               "internal loop of rotor_avc/harmonic/internal_model.py",
+                               choices=FEEDFORWARDS)
+    feedforward_effort: float | None = setting(None, "feedforward dynamic: LQ effort weight of "
+                                               "the internal loop (default: its DEFAULT_EFFORT)",
+                                               positive=True)
+    effort_weight: float = setting(0.0, "law wls: effort penalty relative to the squared "
+                                   "largest singular value of the influence estimate",
+                                   nonnegative=True)
+    leakage: float = setting(0.0, "leakage per update", nonnegative=True, maximum=0.999)
+    sensor_weights: tuple[float, ...] | None = setting(None, "one per sensor, > 0 (default: "
+                                                       "equal)", min_length=1)
+    update_every_samples: int = setting(0, "update period (0: once per revolution)", minimum=0)
+    force_limit_n: float | None = setting(None, "peak force per actuator (none: no limit)",
+                                          unit="N", positive=True)
+    rate_limit_n_per_s: float | None = setting(None, "peak force slope per actuator (none: no "
+                                               "limit)", unit="N/s", positive=True)
+    min_speed_hz: float = setting(2.0, "off below this speed", unit="Hz", positive=True)
+    start_s: float = setting(0.0, "switch-on time", unit="s", nonnegative=True)
+    influence: InfluenceSettings = setting(InfluenceSettings, "the influence schedule")
+    identification: IdentificationSettings | None = setting(None, "present (`{}`: the "
+                                                            "defaults): online identification")
+    fallback: FallbackSettings = setting(FallbackSettings, "safe fallback")
+    runout: tuple[RunoutEntry, ...] = setting((), "simulated sensor runout")
+
+    def check(self, sec: Section) -> None:
+        if any(h != int(h) or h < 1 for h in self.harmonics) \
+                or len(set(self.harmonics)) != len(self.harmonics):
+            raise sec.error("harmonics", "must be a list of distinct integers >= 1 (got ["
+                            + ", ".join(f"{h:g}" for h in self.harmonics) + "])",
+                            fix="e.g. [1] or [1, 2]")
+        if self.sensor_weights is not None:
+            w = list(self.sensor_weights)
+            if len(w) != len(self.sensors):
+                raise sec.error("sensor_weights", f"must have {len(self.sensors)} entries "
+                                f"(got {len(w)})")
+            if min(w) <= 0:
+                raise sec.error("sensor_weights", f"must all be > 0 (got {w})")
+        if self.law == "newton" and self.effort_weight > 0:
+            raise sec.error("effort_weight", "law newton has no effort penalty",
+                            fix="use law: wls for an effort penalty, or drop effort_weight")
+        if self.law == "wls" and self.effort_weight <= 0:
+            raise sec.error("effort_weight", "law wls needs effort_weight > 0",
+                            fix="give effort_weight > 0 (e.g. 1.0e-3) or use law: newton")
+        if self.adapt_in == "excitations" and self.harmonics != (1.0,):
+            raise sec.error("adapt_in", "excitations act at 1x only", fix="use harmonics: [1]")
+        for i, entry in enumerate(self.runout):
+            if entry.sensor not in self.sensors:
+                raise sec.error(f"runout[{i}].sensor", f"{entry.sensor!r} is not a harmonic "
+                                "sensor", fix="use one of: " + ", ".join(self.sensors))
+        if self.feedforward == "dynamic":
+            self._check_dynamic(sec)
+        elif self.feedforward_effort is not None:
+            raise sec.error("feedforward_effort", "weights the internal loop of feedforward: "
+                            "dynamic only", fix="add feedforward: dynamic, or drop it")
+
+    def _check_dynamic(self, sec: Section) -> None:
+        """ConfigError for a setting the dynamic feed-forward cannot run with."""
+        if self.adapt_in != "excitations":
+            raise sec.error("feedforward", "dynamic runs the internal loop on the excitation "
+                            "estimate", fix="add adapt_in: excitations, or use feedforward: "
+                            "quasi_static")
+        if self.refresh_samples < 1:
+            raise sec.error("refresh_samples", "the dynamic feed-forward needs its block length",
+                            fix="give refresh_samples >= 1 (e.g. 25)")
+        inf = self.influence
+        if self.identification is not None or inf.phase_error_deg != 0 \
+                or inf.magnitude_factor != 1:
+            raise sec.error("feedforward", "dynamic runs on the model itself: no influence "
+                            "identification or perturbation",
+                            fix="drop identification and influence.phase_error_deg / "
+                            "magnitude_factor, or use feedforward: quasi_static")
+
+
+#: the ``harmonic:`` declaration
+HARMONIC_SETTINGS = HarmonicControlSettings
+
+
+def harmonic_section(cfg: Section) -> HarmonicControlSettings:
+    """The config's ``harmonic:`` section, validated."""
+    return read_settings(HARMONIC_SETTINGS, cfg.section("harmonic"))
+
+
+def _names(sec: Section, key: str, names, known) -> list[str]:
+    """``names`` (of ``key``), each one of ``known`` and given once."""
+    names = list(names)
+    if not names:
+        raise sec.error(key, f"must be a non-empty list of names (got {names!r})",
                         fix="write it as [A, B, ...] with names from: " + ", ".join(known))
-    unknown = [v for v in value if v not in known]
-    if unknown or len(set(value)) != len(value):
-        raise sec.error(key, f"unknown or repeated names {unknown or value}",
+    unknown = [v for v in names if v not in known]
+    if unknown or len(set(names)) != len(names):
+        raise sec.error(key, f"unknown or repeated names {unknown or names}",
                         fix="use each of these at most once: " + ", ".join(known))
-    return value
+    return names
 
 
-def harmonic_settings(sec, n_sensors: int) -> HarmonicSettings:
-    """:class:`HarmonicSettings` from the section (ConfigError naming the field)."""
-    num = lambda key, default, **kw: sec.number(key, default, **kw)  # noqa: E731
-    if isinstance(sec.raw("gain", None), str) and sec.raw("gain") != "auto":
-        raise sec.error("gain", f"must be a number > 0 or `auto` (got {sec.raw('gain')!r})",
-                        fix="e.g. gain: 0.5, or gain: auto (per speed from the loop analysis)")
-    kw = {"law": sec.choice("law", LAWS, default="newton"),
-          "gain": 0.5 if sec.raw("gain", None) == "auto" else num("gain", 0.5, positive=True),
-          "adapt_in": sec.choice("adapt_in", ADAPT_IN, default="forces"),
-          "refresh_samples": sec.integer("refresh_samples", 0, minimum=0),
-          "effort_weight": num("effort_weight", 0.0, nonnegative=True),
-          "leakage": num("leakage", 0.0, nonnegative=True, maximum=0.999),
-          "update_every_samples": sec.integer("update_every_samples", 0, minimum=0),
-          "force_limit_n": num("force_limit_n", math.inf, positive=True, unit="N")
-          if sec.has("force_limit_n") else math.inf,
-          "rate_limit_n_per_s": num("rate_limit_n_per_s", None, positive=True, unit="N/s")
-          if sec.has("rate_limit_n_per_s") else math.inf,
-          "min_speed_hz": num("min_speed_hz", 2.0, positive=True, unit="Hz"),
-          "start_s": num("start_s", 0.0, nonnegative=True, unit="s")}
-    if sec.has("sensor_weights"):
-        w = sec.number_list("sensor_weights", length=n_sensors)
-        if min(w) <= 0:
-            raise sec.error("sensor_weights", f"must all be > 0 (got {w})")
-        kw["sensor_weights"] = tuple(w)
-    if kw["law"] == "newton" and kw["effort_weight"] > 0:
-        raise sec.error("effort_weight", "law newton has no effort penalty",
-                        fix="use law: wls for an effort penalty, or drop effort_weight")
-    if kw["law"] == "wls" and kw["effort_weight"] <= 0:
-        raise sec.error("effort_weight", "law wls needs effort_weight > 0",
-                        fix="give effort_weight > 0 (e.g. 1.0e-3) or use law: newton")
-    if sec.has("identification"):
-        ident = sec.section("identification")
-        ident.check_keys(IDENTIFICATION_KEYS)
-        kw.update(identify=True,
-                  forgetting=ident.number("forgetting", 0.98, positive=True, maximum=1.0),
-                  dither_n=ident.number("dither_n", 0.0, nonnegative=True, unit="N"),
-                  min_change_n=ident.number("min_change_n", 1e-3, positive=True, unit="N"),
-                  min_rel_change=ident.number("min_rel_change", 0.1, nonnegative=True,
-                                              maximum=0.99),
-                  seed=ident.integer("seed", 0, minimum=0))
-    fb = sec.section("fallback", {})
-    fb.check_keys(FALLBACK_KEYS)
-    kw.update(fallback=fb.choice("mode", FALLBACKS, default="freeze"),
-              divergence_factor=fb.number("divergence_factor", 100.0, minimum=1.0),
-              patience=fb.integer("patience", 3, minimum=1),
-              fade_updates=fb.integer("fade_updates", 10, minimum=1))
-    if fb.has("poor_residual"):
-        kw["poor_residual"] = fb.number("poor_residual", positive=True)
-    return HarmonicSettings(**kw)
+def _actuators(machine, s: HarmonicControlSettings) -> list[str]:
+    ids = [a.id for a in machine.plant.actuators]
+    return _names(machine.config.section("harmonic"), "actuators",
+                  ids if s.actuators is None else s.actuators, ids)
 
 
 def harmonic_actuators(machine) -> list[str]:
     """The actuators of the ``harmonic:`` section (validated), without building the block."""
-    sec = machine.config.section("harmonic")
-    ids = [a.id for a in machine.plant.actuators]
-    return _names(sec, "actuators", ids, default=ids)
+    return _actuators(machine, harmonic_section(machine.config))
+
+
+def _block_settings(s: HarmonicControlSettings) -> HarmonicSettings:
+    """The block's :class:`HarmonicSettings` (``gain: auto``: the block's default gain, replaced
+    by the gain schedule)."""
+    kw = dict(law=s.law, adapt_in=s.adapt_in, refresh_samples=s.refresh_samples,
+              effort_weight=s.effort_weight, leakage=s.leakage,
+              sensor_weights=s.sensor_weights, update_every_samples=s.update_every_samples,
+              force_limit_n=math.inf if s.force_limit_n is None else s.force_limit_n,
+              rate_limit_n_per_s=(math.inf if s.rate_limit_n_per_s is None
+                                  else s.rate_limit_n_per_s),
+              min_speed_hz=s.min_speed_hz, start_s=s.start_s, fallback=s.fallback.mode,
+              divergence_factor=s.fallback.divergence_factor, patience=s.fallback.patience,
+              fade_updates=s.fallback.fade_updates)
+    if s.gain != "auto":
+        kw["gain"] = s.gain
+    if s.fallback.poor_residual is not None:
+        kw["poor_residual"] = s.fallback.poor_residual
+    ident = s.identification
+    if ident is not None:
+        kw.update(identify=True, forgetting=ident.forgetting, dither_n=ident.dither_n,
+                  min_change_n=ident.min_change_n, min_rel_change=ident.min_rel_change,
+                  seed=ident.seed)
+    return HarmonicSettings(**kw)
 
 
 def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float,
@@ -153,42 +258,26 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     from ..analysis.sampled_loop import machine_sampled_loop
     from ..sim.stepper import MeasurementLayout
     sec = machine.config.section("harmonic")
-    sec.check_keys(HARMONIC_KEYS)
-    plant = machine.plant
-    actuators = harmonic_actuators(machine)
-    sensors = _names(sec, "sensors", MeasurementLayout(plant).names)
-    harmonics = sec.raw("harmonics", [1])
-    if not isinstance(harmonics, list) or not harmonics or any(
-            isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in harmonics) \
-            or len(set(harmonics)) != len(harmonics):
-        raise sec.error("harmonics",
-                        f"must be a list of distinct integers >= 1 (got {harmonics!r})",
-                        fix="e.g. [1] or [1, 2]")
-    settings = harmonic_settings(sec, len(sensors))
-    terms = runout_terms(sec, sensors)
-    inf = sec.section("influence", {})
-    inf.check_keys(INFLUENCE_KEYS)
-    rel_step = inf.number("rel_step", DEFAULT_REL_STEP, positive=True, maximum=0.5)
-    start = 2 * math.pi * settings.min_speed_hz
+    s = harmonic_section(machine.config)
+    actuators = _actuators(machine, s)
+    sensors = _names(sec, "sensors", s.sensors, MeasurementLayout(machine.plant).names)
+    harmonics = sorted(int(h) for h in s.harmonics)
+    settings = _block_settings(s)
+    start = 2 * math.pi * s.min_speed_hz
     if max_speed_rad_s < start:
-        raise sec.error("min_speed_hz", f"{settings.min_speed_hz:g} Hz is above the run's "
+        raise sec.error("min_speed_hz", f"{s.min_speed_hz:g} Hz is above the run's "
                         f"highest speed {max_speed_rad_s / (2 * math.pi):g} Hz",
                         fix="lower min_speed_hz")
     loop = machine_sampled_loop(machine, sample_period_s)
-    excitations = settings.adapt_in == "excitations"
-    if excitations and sorted(harmonics) != [1]:
-        raise sec.error("adapt_in", "excitations act at 1x only", fix="use harmonics: [1]")
-    dynamic = sec.choice("feedforward", FEEDFORWARDS, default="quasi_static") == "dynamic"
-    if dynamic:
-        _check_dynamic(sec, inf, settings)
+    dynamic = s.feedforward == "dynamic"
     try:
-        schedule = model_schedule(loop, sensors, actuators, sorted(harmonics),
-                                  schedule_speeds(start, max_speed_rad_s, rel_step), w_F,
-                                  disturbance=excitations)
+        schedule = model_schedule(loop, sensors, actuators, harmonics,
+                                  schedule_speeds(start, max_speed_rad_s, s.influence.rel_step),
+                                  w_F, disturbance=s.adapt_in == "excitations")
     except ModelError as exc:
         raise sec.error("sensors" if "unbalance response" in str(exc) else "harmonics",
                         str(exc)) from None
-    if sec.raw("gain", None) == "auto":
+    if s.gain == "auto":
         from .lti import gain_schedule
         n = max(int(math.ceil(math.log(max_speed_rad_s / start) / math.log1p(AUTO_GAIN_STEP))), 1)
         speeds, gains = gain_schedule(loop, schedule, settings,
@@ -196,44 +285,25 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
                                        for i in range(n + 1)], AUTO_GAINS, w_F,
                                       excitation_loop=dynamic)
         settings = replace(settings, gain_speeds_rad_s=speeds, gain_values=gains)
-    schedule = schedule.perturbed(inf.number("phase_error_deg", 0.0),
-                                  inf.number("magnitude_factor", 1.0, positive=True))
+    schedule = schedule.perturbed(s.influence.phase_error_deg, s.influence.magnitude_factor)
     if dynamic:
-        block = _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F)
-    elif sec.has("feedforward_effort"):
-        raise sec.error("feedforward_effort", "weights the internal loop of feedforward: "
-                        "dynamic only", fix="add feedforward: dynamic, or drop it")
+        block = _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F,
+                               s.feedforward_effort)
     else:
         block = HarmonicController(schedule, sample_period_s, settings)
+    terms = [(sensors.index(r.sensor), r.order, r.amplitude) for r in s.runout]
     return WithRunout(block, terms) if terms else block
 
 
-def _check_dynamic(sec, inf, settings) -> None:
-    """ConfigError for a setting the dynamic feed-forward cannot run with."""
-    if settings.adapt_in != "excitations":
-        raise sec.error("feedforward", "dynamic runs the internal loop on the excitation "
-                        "estimate", fix="add adapt_in: excitations, or use feedforward: "
-                        "quasi_static")
-    if settings.refresh_samples < 1:
-        raise sec.error("refresh_samples", "the dynamic feed-forward needs its block length",
-                        fix="give refresh_samples >= 1 (e.g. 25)")
-    if settings.identify or inf.has("phase_error_deg") or inf.has("magnitude_factor"):
-        raise sec.error("feedforward", "dynamic runs on the model itself: no influence "
-                        "identification or perturbation",
-                        fix="drop identification and influence.phase_error_deg / "
-                        "magnitude_factor, or use feedforward: quasi_static")
-
-
-def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F):
+def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F, effort):
     """The block with the dynamic feed-forward (:mod:`.dynamic_block`)."""
     from .dynamic_block import DynamicHarmonicController
     from .internal_model import DEFAULT_EFFORT, internal_tables
-    effort = sec.number("feedforward_effort", DEFAULT_EFFORT, positive=True)
     try:
         tables = internal_tables(loop, schedule.actuators, schedule.sensors,
-                                 schedule.speeds_rad_s, settings.refresh_samples, w_F, effort,
+                                 schedule.speeds_rad_s, settings.refresh_samples, w_F,
+                                 DEFAULT_EFFORT if effort is None else effort,
                                  settings.sensor_weights)
     except ModelError as exc:
         raise sec.error("feedforward", str(exc)) from None
     return DynamicHarmonicController(schedule, sample_period_s, settings, tables)
-

@@ -7,7 +7,7 @@ estimator learns the correction ``D = G - G0`` from ``y = dE - G0 dA = D dA``; t
 normalised (``phi = dA / |dA|``, ``y / |dA|``), so the covariance is dimensionless.
 The quasi-steady relation fails while the plant still rings from earlier changes; the small
 changes of a converging loop are mostly such transients, so only changes above a fraction
-``min_rel_change`` of the applied phasors are learnt from (measured on seed 000 at a resonance:
+``min_rel_change`` of the applied phasors are learnt from (measured on Werner 2021 at a resonance:
 without it the estimate drifts and the loop stalls near -15 dB). Standard RLS
 with forgetting ``lambda`` and one covariance shared by all sensor rows::
 

@@ -1,6 +1,6 @@
 """Strategy comparison: one machine and speed profile under no control, the paper's feedback,
 adaptive harmonic control (each law), the two combined, and -- where the config has them -- the
-seed-002 feed-forward and the balancer.
+Sci. Rep. 2023 feed-forward and the balancer.
 
 Every strategy is a variant of one scenario (a config with a ``harmonic:`` section): feedback =
 the config's ``controllers:``; harmonic = its ``harmonic:`` with the law replaced. Results from
@@ -85,7 +85,7 @@ def variants(data: dict) -> dict[str, dict]:
     if data.get("controllers"):
         make("feedback + harmonic Newton", True, LAWS["harmonic Newton"])
     if data.get("model") in models_supporting("feedforward"):
-        make("feed-forward (seed 002)", False, None, feedforward={"type": "synchronous"})
+        make("feed-forward (Sci. Rep. 2023)", False, None, feedforward={"type": "synchronous"})
     if data.get("balancer"):
         make("balancer", bool(data.get("controllers")), None, balancer=True)
     return out

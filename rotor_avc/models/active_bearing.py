@@ -1,4 +1,4 @@
-"""Seed 002 (Sci. Rep. 2023): rigid shaft on two piezo-actuated active bearings, 12 DOF.
+"""Sci. Rep. 2023 (Sci. Rep. 2023): rigid shaft on two piezo-actuated active bearings, 12 DOF.
 
 Generalised coordinates (eqs. 6-7, 0-based here; digest 2): the y block ``eps_r_y`` (rotor centre
 of mass), ``eps_bh_y_1``, ``eps_ac_y_1``, ``eps_bh_y_2``, ``eps_ac_y_2`` (bearing housings and
@@ -117,7 +117,7 @@ class BearingPlane:
 
 @dataclass(frozen=True)
 class ActiveBearingParams:
-    """The seed-002 rotor on two active bearings (SI units)."""
+    """The Sci. Rep. 2023 rotor on two active bearings (SI units)."""
 
     density_kg_m3: float
     diameter_m: float
@@ -131,7 +131,7 @@ class ActiveBearingParams:
 
 def build(p: ActiveBearingParams, name: str, damping_floor_rad_s: float,
           config: dict | None = None) -> LinearPlant:
-    """The seed-002 plant from its parameters (rotor_avc.model_config.active_bearing reads them
+    """The Sci. Rep. 2023 plant from its parameters (rotor_avc.model_config.active_bearing reads them
     from a config); ``config`` is kept on the plant for the record."""
     m_R, I_R, I_p = shaft_mass_properties(p.density_kg_m3, p.diameter_m, p.length_m)
     z_bearing, k_r = p.bearing_z_m, p.tilt_stiffness_n_m_per_rad

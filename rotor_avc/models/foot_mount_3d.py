@@ -1,4 +1,4 @@
-"""Seed 000 (Werner 2021): 18-DOF machine on four (active) feet over a soft foundation.
+"""Werner 2021 (Werner 2021): 18-DOF machine on four (active) feet over a soft foundation.
 
 Generalised coordinates (eq. 10, 0-based here): machine ``z_s, y_s, x_s, phi_sz, phi_sy,
 phi_sx`` and the vertical, lateral and axial displacements of the four foundation points in the
@@ -65,7 +65,7 @@ class FootElement:
 
 @dataclass(frozen=True)
 class FootMountParams:
-    """The seed-000 machine, its feet and the foundation (SI units; digest 2)."""
+    """The Werner 2021 machine, its feet and the foundation (SI units; digest 2)."""
 
     stator_mass_kg: float
     rotor_mass_kg: float
@@ -86,7 +86,7 @@ class FootMountParams:
 
 def build(p: FootMountParams, name: str, damping_floor_rad_s: float, config: dict | None = None
           ) -> LinearPlant:
-    """The seed-000 plant from its parameters (rotor_avc.model_config.foot_mount_3d reads them
+    """The Werner 2021 plant from its parameters (rotor_avc.model_config.foot_mount_3d reads them
     from a config); ``config`` is kept on the plant for the record."""
     m_s, m_r = p.stator_mass_kg, p.rotor_mass_kg
     theta_s, theta_rx = p.stator_inertia_kg_m2, p.rotor_polar_inertia_kg_m2

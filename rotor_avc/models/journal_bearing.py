@@ -1,6 +1,6 @@
 """Cylindrical (plain, 360 deg) journal bearing: Reynolds film, equilibrium, dynamic coefficients.
 
-Seed 001 needs the oil-film coefficients ``c_ij(Omega)``, ``d_ij(Omega)`` of its sleeve bearings
+Werner 2019 needs the oil-film coefficients ``c_ij(Omega)``, ``d_ij(Omega)`` of its sleeve bearings
 (paper Fig. 3, missing; digest section 7 item 1); the paper points to Lund & Thomsen (1978) and
 Someya (2013) for them. This module computes them the way those references do.
 

@@ -1,6 +1,6 @@
 """A piezo stack actuator with its real limits: stroke, blocked force, voltage and bandwidth.
 
-Seed 002 blames the loss of control at high speed on the limited piezo stroke but states no
+Sci. Rep. 2023 blames the loss of control at high speed on the limited piezo stroke but states no
 actuator data (digest 6, 10). A multilayer stack of stiffness ``k_p`` driven by voltage ``V``
 develops the force ``k_p delta_free(V)`` across itself, where the free (unloaded) elongation is
 linear in the voltage: ``delta_free = delta_0 V / V_max`` with the nominal stroke ``delta_0`` and

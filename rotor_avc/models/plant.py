@@ -8,17 +8,17 @@ Every paper's machine becomes one :class:`LinearPlant` (DESIGN.md section 2)::
 with
 
 * ``D(w_F) = D_eta / w_F + D_v`` -- loss-factor (hysteretic) damping ``d = c tan(delta) / w_F``
-  (seed 000 eq. 8) plus any genuinely viscous damping;
-* ``G(Omega) = Omega G1`` -- gyroscopic matrix (seed 000 eq. 12);
+  (Werner 2021 eq. 8) plus any genuinely viscous damping;
+* ``G(Omega) = Omega G1`` -- gyroscopic matrix (Werner 2021 eq. 12);
 * ``C(Omega, w_F) = C + (Omega / w_F) N_eta`` -- stiffness plus the circulatory (skew) terms of
-  rotating internal damping ``d_i Omega`` with ``d_i = c tan(delta_i) / w_F`` (seeds 001, 003);
+  rotating internal damping ``d_i Omega`` with ``d_i = c tan(delta_i) / w_F`` (Werner 2019, Werner 2017);
 * optional terms that depend on speed and damping frequency, added to C and D (sleeve-bearing
-  oil films and the electromagnetic field damping of seed 001);
+  oil films and the electromagnetic field damping of Werner 2019);
 * synchronous excitations whose force phasor per unit amplitude is
   ``F(Omega, Omega') = (Omega^2 - j Omega') p2 + Omega p1 + p0`` (unbalance: ``p2``, the
   ``-j Omega'`` part being the tangential force of an accelerating rotor; bent rotor: ``p0``;
   magnetic eccentricity: ``p0 + Omega p1``), optionally times a speed-dependent factor ``k(Omega)``
-  (seed 001's magnetic eccentricity: ``k = c_md(Omega) - j Omega d_m(Omega)``). The physical force
+  (Werner 2019's magnetic eccentricity: ``k = c_md(Omega) - j Omega d_m(Omega)``). The physical force
   is ``Re{F u e^{j theta}}`` with the shaft angle ``theta`` and the complex amplitude ``u`` (for
   example ``u_e = m e e^{j phi}``);
 * actuators: a force vector ``P_a`` and the displacement row ``s`` of the motion their controller

@@ -1,4 +1,4 @@
-"""Seed 004 (Zhou & Shi 2001): rigid rotor on two isotropic bearings, spin axis Y.
+"""Zhou & Shi 2001 (Zhou & Shi 2001): rigid rotor on two isotropic bearings, spin axis Y.
 
 Generalised coordinates ``q = [R_X, R_Z, theta, psi]`` (paper eq. 1): translations of the mass
 centre and the two tilt angles. The bearings sit at ``y = +-L/2`` (digest 2: the conical
@@ -77,7 +77,7 @@ def axis_point_row(axial_m: float) -> tuple[np.ndarray, np.ndarray]:
 
 def build(rot: RigidRotor, name: str, damping_floor_rad_s: float, config: dict | None = None
           ) -> LinearPlant:
-    """The seed-004 rotor as a LinearPlant (see the module docstring); ``config`` is kept on the
+    """The Zhou & Shi 2001 rotor as a LinearPlant (see the module docstring); ``config`` is kept on the
     plant for the record."""
     k, c, L = rot.stiffness_n_per_m, rot.damping_n_s_per_m, rot.length_m
     M = np.diag([rot.mass_kg, rot.mass_kg, rot.I_t, rot.I_t])

@@ -1,4 +1,4 @@
-"""Seed 003 (Werner 2017): flexible rotor with internal damping on roller bearings, bearing
+"""Werner 2017 (Werner 2017): flexible rotor with internal damping on roller bearings, bearing
 housings/end shields and a rigid stator on a soft foundation -- a 9-DOF plane model.
 
 Generalised coordinates (eq. 7, the paper's order): ``z_s, z_w, y_s, y_w, phi_s, z_v, z_b, y_v,
@@ -99,7 +99,7 @@ def matrices(p: RotorParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
 
 def build(p: RotorParams, name: str, damping_floor_rad_s: float, config: dict | None = None
           ) -> LinearPlant:
-    """The seed-003 plant from its parameters (rotor_avc.model_config.roller_bearing_rotor reads
+    """The Werner 2017 plant from its parameters (rotor_avc.model_config.roller_bearing_rotor reads
     them from a config); ``config`` is kept on the plant for the record."""
     M, C, D_eta, N_eta = matrices(p)
     e = {name: _unit(name) for name in COORDS}

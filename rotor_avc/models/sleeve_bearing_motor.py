@@ -1,4 +1,4 @@
-"""Seed 001 (Werner 2019): 13-DOF plane model of a soft-mounted induction motor with sleeve
+"""Werner 2019 (Werner 2019): 13-DOF plane model of a soft-mounted induction motor with sleeve
 bearings and one vertical active mount under each foot line.
 
 Generalised coordinates (eq. 6, 0-based here): ``z_s, z_w, y_s, y_w, phi_s, z_v, z_b, z_fL, z_fR,
@@ -107,7 +107,7 @@ class SleeveBearing:
 
 @dataclass(frozen=True)
 class MotorParams:
-    """The seed-001 motor, its actuators and foundation (SI units; per side where stated)."""
+    """The Werner 2019 motor, its actuators and foundation (SI units; per side where stated)."""
 
     stator_mass_kg: float
     stator_inertia_kg_m2: float
@@ -134,7 +134,7 @@ class MotorParams:
 
 def build(p: MotorParams, name: str, damping_floor_rad_s: float, config: dict | None = None
           ) -> LinearPlant:
-    """The seed-001 plant from its parameters (rotor_avc.model_config.sleeve_bearing_motor reads
+    """The Werner 2019 plant from its parameters (rotor_avc.model_config.sleeve_bearing_motor reads
     them from a config); ``config`` is kept on the plant for the record."""
     m_s, theta, m_w = p.stator_mass_kg, p.stator_inertia_kg_m2, p.rotor_mass_kg
     m_v, m_b = p.journal_mass_kg, p.housing_mass_kg

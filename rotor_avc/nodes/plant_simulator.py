@@ -99,7 +99,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         self.axis = {a.id: a.axis for a in plant.actuators}
         self.feedback = {foot: ctrl.feedback for foot, ctrl in sc.machine.controllers.items()}
         # actuators whose force the plant waits for: feedback controllers and the feed-forward
-        # node's (synchronous_controller, seed 002), which answers rotor/joint_state
+        # node's (synchronous_controller, Sci. Rep. 2023), which answers rotor/joint_state
         ff = sc.feedforward_actuators()
         self.driven = tuple(self.feedback) + tuple(ff)
         ns = self.p["namespace"]

@@ -1,4 +1,4 @@
-"""``synchronous_controller``: seed 002's 1x feed-forward force generator as a ROS node.
+"""``synchronous_controller``: Sci. Rep. 2023's 1x feed-forward force generator as a ROS node.
 
 Run: ``ros2 run rotor_avc synchronous_controller --ros-args -p scenario:=scenario_active_bearing``
 (or ``python -m rotor_avc.nodes.synchronous_controller ...``).

@@ -1,4 +1,4 @@
-"""Files of `rotor-avc active-bearing` (seed 002): the case table, the insertion loss over
+"""Files of `rotor-avc active-bearing` (Sci. Rep. 2023): the case table, the insertion loss over
 speed (CSV), the summary (JSON) and their plots."""
 from __future__ import annotations
 

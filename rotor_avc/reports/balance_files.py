@@ -10,7 +10,7 @@ from ..output_files import save_figure, write_text, writing
 
 
 def write_rigid_runs(path: Path, bal, ref, b_true, err, switch_times) -> Path:
-    """The seed-004 run-up balanced (``bal``) and not (``ref``) as ``balance.npz``."""
+    """The Zhou & Shi 2001 run-up balanced (``bal``) and not (``ref``) as ``balance.npz``."""
     with writing(path) as tmp:
         np.savez(tmp, t=bal.t, output_balanced=bal.output, output_unbalanced=ref.output,
                  position=bal.position, target=bal.target, mode=bal.mode.astype(str),

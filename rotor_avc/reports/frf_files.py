@@ -1,4 +1,4 @@
-"""FRF tables and plots: ``frf.csv`` and PNG magnitude/phase plots in dB (seed 000 eqs. 52-54)."""
+"""FRF tables and plots: ``frf.csv`` and PNG magnitude/phase plots in dB (Werner 2021 eqs. 52-54)."""
 from __future__ import annotations
 
 import csv

@@ -1,4 +1,4 @@
-"""Files of `rotor-avc study` (seed 001 gain studies): the curves and the per-gain summary (CSV)
+"""Files of `rotor-avc study` (Werner 2019 gain studies): the curves and the per-gain summary (CSV)
 and their plots (PNG and an interactive HTML page)."""
 from __future__ import annotations
 

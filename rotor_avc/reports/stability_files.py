@@ -1,4 +1,4 @@
-"""Files of `rotor-avc stability` (seed 003): the threshold (JSON), the study table (CSV), the
+"""Files of `rotor-avc stability` (Werner 2017): the threshold (JSON), the study table (CSV), the
 Campbell-style eigenvalue plot and the threshold map."""
 from __future__ import annotations
 

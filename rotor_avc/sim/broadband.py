@@ -13,6 +13,9 @@ A scenario may add a known force ``d_k`` to the force the controller of one actu
         seed: 1                # white: the random sequence (default 0)
         sweep_s: 1.0           # chirp: duration of one sweep, repeated (default 1 s)
 
+The keys are declared in :class:`rotor_avc.settings.TestSignalSettings`; the actuator and the
+band's Nyquist limit are checked here (:func:`broadband_from_config`).
+
 Sampling contract (DESIGN.md section 3): the plant holds ``u_k + d_k`` over ``[t_k, t_k+1)``;
 ``u_k`` is what the controller answered, ``d_k`` this force. The sequence depends only on the
 sample index and the configuration, never on the run's length or on who steps the plant:
@@ -39,9 +42,8 @@ import numpy as np
 import scipy.signal
 
 from ..errors import ModelError
+from ..settings import TEST_SIGNAL_KINDS as KINDS, TestSignalSettings
 
-KINDS = ("white", "chirp")
-KEYS = ("actuator", "kind", "rms_n", "band_hz", "seed", "sweep_s")
 #: samples drawn per random block (the sequence does not depend on it being read in blocks)
 BLOCK = 4096
 FILTER_ORDER = 4
@@ -117,25 +119,20 @@ class BroadbandForce:
         return seq[k0 - first * BLOCK:k0 - first * BLOCK + n].copy()
 
 
-def broadband_from_config(sec, plant, sample_period_s: float) -> BroadbandForce:
-    """Validate ``simulation.test_signal`` (a :class:`rotor_avc.config.Section`)."""
-    sec.check_keys(KEYS)
+def broadband_from_config(signal: TestSignalSettings, sec, plant,
+                          sample_period_s: float) -> BroadbandForce:
+    """The force ``simulation.test_signal`` declares (``signal``, read from the
+    :class:`rotor_avc.config.Section` ``sec``), its actuator and band checked against the plant
+    and the sample rate."""
     ids = [a.id for a in plant.actuators]
-    act_id = sec.raw("actuator")
-    if act_id not in ids:
-        raise sec.error("actuator", f"unknown actuator {act_id!r}", fix="use one of: "
+    if signal.actuator not in ids:
+        raise sec.error("actuator", f"unknown actuator {signal.actuator!r}", fix="use one of: "
                         + (", ".join(ids) or "none (the plant has no actuators)"))
-    kind = sec.choice("kind", KINDS)
-    band = sec.number_list("band_hz", length=2)
+    band = list(signal.band_hz)
     nyquist = 0.5 / sample_period_s
     if not 0.0 <= band[0] < band[1] < nyquist:
         raise sec.error("band_hz", f"{band} Hz must satisfy 0 <= lo < hi < {nyquist:g} Hz (the "
                         "Nyquist frequency of the sample rate)", fix="e.g. [2.0, 400.0]")
-    if kind == "white" and sec.has("sweep_s"):
-        raise sec.error("sweep_s", "only used with kind: chirp", fix="drop sweep_s")
-    if kind == "chirp" and sec.has("seed"):
-        raise sec.error("seed", "only used with kind: white", fix="drop seed")
-    return BroadbandForce(str(act_id), plant.actuator(act_id).axis, kind,
-                          sec.number("rms_n", positive=True, unit="N"), tuple(band),
-                          sample_period_s, sec.integer("seed", 0, minimum=0),
-                          sec.number("sweep_s", 1.0, positive=True, unit="s"))
+    return BroadbandForce(signal.actuator, plant.actuator(signal.actuator).axis, signal.kind,
+                          signal.rms_n, signal.band_hz, sample_period_s, signal.seed,
+                          signal.sweep_s)

@@ -11,7 +11,8 @@ at the same time) is allowed and takes effect at its instant (right-continuous).
 After the last knot the speed is held. Configs give speeds as rotational frequencies in Hz
 (``speed_hz``, the papers' f_r); everything inside is rad/s.
 
-Config forms (``simulation.speed``)::
+Config forms (``simulation.speed``), one settings class per ``type`` (:data:`PROFILE_SETTINGS`
+declares every key; unknown keys refused)::
 
     {type: constant, speed_hz: 50.0, duration_s: 2.0}        # duration optional
     {type: ramp, start_hz: 0.0, stop_hz: 250.0, duration_s: 25.0}   # or rate_hz_per_s
@@ -21,15 +22,15 @@ Config forms (``simulation.speed``)::
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 from ..config import Section
 from ..errors import ModelError
+from ..settings import read_settings, setting
 
 TWO_PI = 2.0 * math.pi
-PROFILE_TYPES = ("constant", "ramp", "stepped", "sequence")
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,40 +141,98 @@ def sequence(parts: list[SpeedProfile]) -> SpeedProfile:
 
 
 # -- config ------------------------------------------------------------------------------------
-def _hz(sec: Section, key: str) -> float:
-    return TWO_PI * sec.number(key, nonnegative=True, unit="Hz")
+@dataclass(frozen=True)
+class ConstantProfile:
+    """``{type: constant}``: one speed, held."""
+
+    type: str = setting(doc="`constant`", choices=("constant",))
+    speed_hz: float = setting(doc="rotational frequency f_r", unit="Hz", nonnegative=True)
+    duration_s: float | None = setting(None, "length of the profile (none: held for ever)",
+                                       unit="s", positive=True)
+
+    def profile(self) -> SpeedProfile:
+        return constant_speed(TWO_PI * self.speed_hz, self.duration_s)
+
+
+@dataclass(frozen=True)
+class RampProfile:
+    """``{type: ramp}``: a linear run-up or run-down (the constant angular acceleration of Zhou &
+    Shi 2001's balancing run-up), then held; its length given directly or as a rate."""
+
+    type: str = setting(doc="`ramp`", choices=("ramp",))
+    start_hz: float = setting(doc="rotational frequency at t = 0", unit="Hz", nonnegative=True)
+    stop_hz: float = setting(doc="rotational frequency at the end (!= start_hz)", unit="Hz",
+                             nonnegative=True)
+    duration_s: float | None = setting(None, "length of the ramp (or rate_hz_per_s)", unit="s",
+                                       positive=True)
+    rate_hz_per_s: float | None = setting(None, "rate of change of f_r (or duration_s)",
+                                          unit="Hz/s", positive=True)
+
+    def check(self, sec: Section) -> None:
+        if (self.duration_s is None) == (self.rate_hz_per_s is None):
+            raise sec.error("duration_s", "give exactly one of duration_s and rate_hz_per_s",
+                            fix="e.g. `duration_s: 20.0` or `rate_hz_per_s: 10.0`")
+        if self.start_hz == self.stop_hz:
+            raise sec.error("stop_hz", "equals start_hz", fix="use `type: constant` for a "
+                                                              "constant speed")
+
+    def profile(self) -> SpeedProfile:
+        start, stop = TWO_PI * self.start_hz, TWO_PI * self.stop_hz
+        dur = (self.duration_s if self.duration_s is not None
+               else abs(stop - start) / (TWO_PI * self.rate_hz_per_s))
+        return ramp(start, stop, dur)
+
+
+@dataclass(frozen=True)
+class SteppedProfile:
+    """``{type: stepped}``: a dwell at each speed, moving linearly between them (0 s: a jump)."""
+
+    type: str = setting(doc="`stepped`", choices=("stepped",))
+    speeds_hz: tuple[float, ...] = setting(doc="rotational frequencies, in order (>= 0)",
+                                           unit="Hz", min_length=1)
+    dwell_s: float = setting(doc="time held at each speed", unit="s", positive=True)
+    transition_s: float = setting(0.0, "time from one speed to the next", unit="s",
+                                  nonnegative=True)
+
+    def check(self, sec: Section) -> None:
+        if min(self.speeds_hz) < 0:
+            raise sec.error("speeds_hz", f"speeds must be >= 0 (got {list(self.speeds_hz)})",
+                            fix="give rotational frequencies >= 0 Hz")
+
+    def profile(self) -> SpeedProfile:
+        return stepped([TWO_PI * f for f in self.speeds_hz], self.dwell_s, self.transition_s)
+
+
+@dataclass(frozen=True)
+class SequenceProfile:
+    """``{type: sequence}``: profiles played one after the other (:func:`sequence`).
+
+    ``parts`` is a list of profile mappings, each validated by the class of its ``type``
+    (:func:`profile_from_config`): the settings reader holds no lists of sections."""
+
+    type: str = setting(doc="`sequence`", choices=("sequence",))
+    parts: tuple[dict, ...] = setting(doc="profiles of the other types, in order; every one but "
+                                      "the last with a length", min_length=1)
+
+
+#: the class declaring each profile ``type`` (every key, ``type`` included)
+PROFILE_SETTINGS = {"constant": ConstantProfile, "ramp": RampProfile, "stepped": SteppedProfile,
+                    "sequence": SequenceProfile}
 
 
 def profile_from_config(sec: Section) -> SpeedProfile:
-    """Build a profile from ``simulation.speed`` (see the module docstring)."""
-    kind = sec.choice("type", PROFILE_TYPES)
-    if kind == "constant":
-        sec.check_keys(("type", "speed_hz", "duration_s"))
-        dur = sec.number("duration_s", positive=True, unit="s") if sec.has("duration_s") else None
-        return constant_speed(_hz(sec, "speed_hz"), dur)
-    if kind == "ramp":
-        sec.check_keys(("type", "start_hz", "stop_hz", "duration_s", "rate_hz_per_s"))
-        start, stop = _hz(sec, "start_hz"), _hz(sec, "stop_hz")
-        if sec.has("duration_s") == sec.has("rate_hz_per_s"):
-            raise sec.error("duration_s", "give exactly one of duration_s and rate_hz_per_s",
-                            fix="e.g. `duration_s: 20.0` or `rate_hz_per_s: 10.0`")
-        if sec.has("duration_s"):
-            dur = sec.number("duration_s", positive=True, unit="s")
-        else:
-            rate = sec.number("rate_hz_per_s", positive=True, unit="Hz/s")
-            dur = abs(stop - start) / (TWO_PI * rate)
-        if start == stop:
-            raise sec.error("stop_hz", "equals start_hz", fix="use `type: constant` for a "
-                                                              "constant speed")
-        return ramp(start, stop, dur)
-    if kind == "stepped":
-        sec.check_keys(("type", "speeds_hz", "dwell_s", "transition_s"))
-        speeds = sec.number_list("speeds_hz", min_length=1)
-        if min(speeds) < 0:
-            raise sec.error("speeds_hz", f"speeds must be >= 0 (got {speeds})")
-        return stepped([TWO_PI * f for f in speeds], sec.number("dwell_s", positive=True, unit="s"),
-                       sec.number("transition_s", 0.0, nonnegative=True, unit="s"))
-    sec.check_keys(("type", "parts"))
+    """Build a profile from ``simulation.speed`` (see the module docstring), validated by the
+    class :data:`PROFILE_SETTINGS` declares for its ``type``."""
+    kind = sec.choice("type", PROFILE_SETTINGS)
+    if kind == "sequence":
+        return _sequence_from_config(sec)
+    return read_settings(PROFILE_SETTINGS[kind], sec).profile()
+
+
+def _sequence_from_config(sec: Section) -> SpeedProfile:
+    """``{type: sequence, parts: [...]}``: :class:`SequenceProfile`'s keys, each part read by
+    :func:`profile_from_config`."""
+    sec.check_keys(f.name for f in fields(SequenceProfile))
     raw = sec.raw("parts")
     if not isinstance(raw, list) or not raw:
         raise sec.error("parts", "must be a non-empty list of profiles",

@@ -10,8 +10,8 @@ Sampling contract, sample ``k`` at ``t_k = k T``:
 2. the controllers compute ``u_k`` from ``y_k``;
 3. :meth:`~PlantStepper.step` holds ``u_k`` over ``[t_k, t_k+1)`` and advances to ``x_{k+1}``.
 
-Unbalance forcing (seed 000 eqs. 13-14, the digest's real form with ``theta = int Omega dt``, and
-the tangential ``-j Omega'`` term of an accelerating rotor, seed 004 eq. 1)::
+Unbalance forcing (Werner 2021 eqs. 13-14, the digest's real form with ``theta = int Omega dt``, and
+the tangential ``-j Omega'`` term of an accelerating rotor, Zhou & Shi 2001 eq. 1)::
 
     f_e(t) = Re{ sum_j k_j(Omega) [(Omega^2 - j Omega') p2_j + Omega p1_j + p0_j] (u_j + c_j)
                  e^{j theta} }
@@ -37,7 +37,7 @@ Accuracy (stated and tested in ``test/test_sim_stepper.py``):
   restarted at its exact value ``theta(t_k)`` every sample, and the propagators are interpolated
   between speed nodes that keep the speed-dependent matrices within ``grid_tol`` (relative) of
   the exact ones and an undamped rotor's energy within ``grid_tol`` per simulated second. A
-  run-up through a resonance (seed 000 case 1, 30 -> 46 Hz in 1 s, 5 kHz) stays within 1e-5 of
+  run-up through a resonance (Werner 2021 case 1, 30 -> 46 Hz in 1 s, 5 kHz) stays within 1e-5 of
   ``solve_ivp`` (DOP853, rtol 1e-11) relative to the peak -- measured 2e-6. Fast ramps at low
   speed with stepped forces are the hard case (case 2, 10 -> 60 Hz in 0.2 s, random held forces:
   8e-4 in the foundation velocities of the overdamped local modes; halve ``T`` for a quarter).

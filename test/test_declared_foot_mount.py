@@ -1,0 +1,131 @@
+"""The declared keys of ``model: foot_mount_3d`` (Werner 2021) and ``model: rigid_rotor``
+(Zhou & Shi 2001): misspelt keys answered with the closest one, bounds refused with field and
+unit, cross-field rules, and a reference row for every key the shipped configs use."""
+import copy
+import dataclasses
+import re
+from pathlib import Path
+
+import pytest
+
+from rotor_avc.config import load_yaml
+from rotor_avc.errors import ConfigError
+from rotor_avc.machine import machine_from_config
+from rotor_avc.model_config import foot_mount_3d, rigid_rotor
+from rotor_avc.settings import _rows
+
+ROOT = Path(__file__).resolve().parents[1]
+MODULES = {"foot_mount_3d": foot_mount_3d, "rigid_rotor": rigid_rotor}
+
+
+def shipped(model: str) -> dict[str, dict]:
+    """The shipped configs of ``model`` (includes resolved)."""
+    configs = {p.stem: load_yaml(p) for p in sorted((ROOT / "config").glob("*.yaml"))}
+    return {name: data for name, data in configs.items() if data.get("model") == model}
+
+
+def loaded(config: str) -> dict:
+    return copy.deepcopy(load_yaml(ROOT / "config" / f"{config}.yaml"))
+
+
+def parent(data: dict, path: str) -> tuple[dict, str]:
+    """The mapping holding the last key of the dotted ``path``, and that key."""
+    *parents, key = path.split(".")
+    for k in parents:
+        data = data[k]
+    return data, key
+
+
+def changed(config: str, path: str, value) -> dict:
+    data = loaded(config)
+    sub, key = parent(data, path)
+    sub[key] = value
+    return data
+
+
+def refused(data: dict) -> str:
+    with pytest.raises(ConfigError) as info:
+        machine_from_config(data, "bad.yaml")
+    return str(info.value)
+
+
+@pytest.mark.parametrize("config,path,wrong,right", [
+    ("foot_mount_case3", "machine.foot_axial_arm_m", "foot_axial_arms_m", "foot_axial_arm_m"),
+    ("foot_mount_case3", "elements.actuator.stiffness_n_per_m", "stifness_n_per_m",
+     "stiffness_n_per_m"),
+    ("foot_mount_case3", "elements.stiff_element", "stiff_elemnt", "stiff_element"),
+    ("foot_mount_case1", "foundation.tan_delta", "tan_delt", "tan_delta"),
+    ("balancer_rigid_rotor", "rotor.length_m", "lenght_m", "length_m"),
+    ("balancer_rigid_rotor", "bearings.damping_n_s_per_m", "damping_ns_per_m",
+     "damping_n_s_per_m"),
+])
+def test_a_misspelt_nested_key_is_answered_with_the_closest_one(config, path, wrong, right):
+    data = loaded(config)
+    sub, key = parent(data, path)
+    sub[wrong] = sub.pop(key)
+    where = path.rpartition(".")[0] + "." + wrong
+    msg = refused(data)
+    assert f"{where}: unknown key (did you mean '{right}'?)" in msg, msg
+
+
+@pytest.mark.parametrize("config,path,value,words", [
+    ("foot_mount_case3", "machine.rotor_mass_kg", -1900.0, "must be > 0 (got -1900.0 kg)"),
+    ("foot_mount_case3", "machine.stator_inertia_kg_m2.x", 0.0, "must be > 0 (got 0.0 kg m^2)"),
+    ("foot_mount_case3", "machine.bearing_axial_position_m.N", -1.0,
+     "must be >= 0 (got -1.0 m)"),
+    ("foot_mount_case3", "elements.actuator.stiffness_n_per_m.z", 0.0,
+     "must be > 0 (got 0.0 N/m)"),
+    ("foot_mount_case3", "elements.stiff_element.stator_mass_kg", -5.0,
+     "must be >= 0 (got -5.0 kg)"),
+    ("foot_mount_case1", "foundation.tan_delta", 0.2, "loss factor 0.2 is outside the model's "
+     "range (eq. 44 needs tan(delta) < 0.2)"),
+    ("foot_mount_case3", "elements.actuator.tan_delta", 4.0, "loss factor 4.0 is outside the "
+     "model's range (eq. 44 needs tan(delta) < 0.2) -- fix: give the loss factor tan(delta), "
+     "not a percentage"),
+    ("balancer_rigid_rotor", "rotor.density_kg_m3", 0.0, "must be > 0 (got 0.0 kg/m^3)"),
+    ("balancer_rigid_rotor", "bearings.damping_n_s_per_m", -1.0, "must be >= 0 (got -1.0 N s/m)"),
+    ("balancer_rigid_rotor", "rotor.gyroscopic", "yes", "must be true or false (got 'yes')"),
+])
+def test_a_value_out_of_bounds_is_refused_naming_field_and_unit(config, path, value, words):
+    msg = refused(changed(config, path, value))
+    assert f"bad.yaml: {path}: {words}" in msg, msg
+
+
+def test_the_mounting_rules_name_the_field_and_the_fix():
+    msg = refused(changed("foot_mount_case3", "mounting", "direct"))
+    assert "feet: mounting: direct ties every foot rigidly" in msg
+    assert "set every foot to `none` or use `mounting: elements`" in msg
+    data = loaded("foot_mount_case3")
+    del data["feet"]
+    assert "feet: missing" in refused(data)
+    data = changed("foot_mount_case2_4act", "elements", {})
+    assert "elements.actuator: missing -- fix: add `actuator:` to elements" in refused(data)
+
+
+def test_model_keys_are_the_declared_fields():
+    for module in MODULES.values():
+        assert module.MODEL_KEYS == tuple(f.name for f in dataclasses.fields(module.MODEL_SETTINGS))
+
+
+def leaves(data, path=()):
+    if isinstance(data, dict):
+        for key, value in data.items():
+            yield from leaves(value, path + (str(key),))
+    else:
+        yield ".".join(path)
+
+
+@pytest.mark.parametrize("model", sorted(MODULES))
+def test_every_key_of_the_shipped_configs_has_a_reference_row(model):
+    module = MODULES[model]
+    rows = [path.lstrip(".") for path, *_ in _rows(module.MODEL_SETTINGS, "")]
+    patterns = [re.compile(re.escape(r).replace(re.escape("<name>"), r"[^.]+") + "$")
+                for r in rows]
+    configs = shipped(model)
+    assert configs, f"no shipped config of model {model}"
+    for name, data in configs.items():
+        mine = {k: v for k, v in data.items() if k in module.MODEL_KEYS}
+        for leaf in leaves(mine):
+            assert any(p.match(leaf) for p in patterns), f"{name}: {leaf} has no reference row"
+    for path, kind, default, what in _rows(module.MODEL_SETTINGS, ""):
+        assert what, f"{path} has no meaning"
