@@ -99,3 +99,11 @@ def test_a_capability_the_model_lacks_is_refused_naming_the_models_that_have_it(
     feet["simulation"]["feedforward"] = {"type": "synchronous"}
     with pytest.raises(ConfigError, match="feedforward.type: .*fix: use it with model: active_bearing"):
         scenario_from_machine(machine_from_section(Section(feet, "", "case3")))
+
+
+def test_the_readmes_python_example_runs():
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("### Model your own machine"):]
+    code = section[section.index("```python\n") + 10:section.index("```\n\n")]
+    assert "load_machine" in code and len(code.splitlines()) <= 12
+    exec(compile(code, "README.md (Python example)", "exec"), {})
