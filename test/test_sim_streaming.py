@@ -109,8 +109,8 @@ def test_a_run_held_in_memory_is_refused_above_the_limit(tmp_path, capsys, monke
         assert check_sequence(bag, 250).ok
 
 
-#: samples of the run the signal tests interrupt: long enough (about half a minute undisturbed)
-#: that it cannot end before the signal arrives, however late a loaded machine delivers it
+#: samples of the run the signal tests interrupt once its first block is out (a few seconds of
+#: run left: the signal arrives while it runs)
 SIGNALLED_SAMPLES = 3_000_000
 
 
@@ -150,6 +150,7 @@ def test_ctrl_c_during_an_npz_run_leaves_no_file(tmp_path):
     out = tmp_path / "run.npz"
     proc = _simulate(tmp_path, out)
     assert "samples" in proc.stdout.readline()          # printed just before the run starts
+    _wait_for(lambda: any(tmp_path.glob("*/0.npy")))     # the first block is written
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == EXIT_INTERRUPTED and "interrupted" in stdout + stderr, stderr

@@ -37,6 +37,12 @@ def run(args) -> int:
     for text in check.enforce(scenario.machine.control.allow_unstable,
                               scenario.machine.config.source):
         warn(NAME, text)
+    with interrupt_flag() as interrupted:     # from here a Ctrl-C ends the run at a clean point
+        return _simulate(args, scenario, check, interrupted)
+
+
+def _simulate(args, scenario, check, interrupted) -> int:
+    """The run of :func:`run`, its output and summary (``interrupted()``: stop after a block)."""
     plant = scenario.machine.plant
     print(f"{plant.name}: {scenario.duration_s:g} s at {1 / scenario.sample_period_s:g} Hz "
           f"({scenario.n_steps} samples), {len(scenario.machine.controllers)} controller(s), "
@@ -59,7 +65,7 @@ def run(args) -> int:
                 _check_budget(ts, scenario.n_steps, time.perf_counter() - t0, partial)
                 first = False
     with writing(args.out) as partial:
-        with interrupt_flag() as interrupted, np.errstate(over="ignore", invalid="ignore"):
+        with np.errstate(over="ignore", invalid="ignore"):
             blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,
                                                  controllers=controllers), partial)
             n, peaks, units = _summary(
