@@ -32,6 +32,7 @@ from ..config import Section
 from ..control.synchronous import SynchronousForceGenerator
 from ..errors import ModelError
 from ..models.active_bearing import COORDS, PLANES, plane_mask
+from ..model_config.active_bearing import model_settings
 from ..models.piezo import PiezoStack
 from ..models.plant import LinearPlant
 from ..settings import FEEDFORWARD_METHODS as METHODS
@@ -40,10 +41,9 @@ from .insertion_loss import first_sign_change, insertion_loss_db, phasor_rms
 
 
 def feedforward_method(cfg: Section) -> str:
-    """``feedforward.method`` of a machine config (default ``paper``)."""
-    sec = cfg.section("feedforward", {})
-    sec.check_keys(("method",))
-    return sec.choice("method", METHODS, default="paper")
+    """``feedforward.method`` of an active-bearing config (declared in
+    rotor_avc.model_config.active_bearing; default ``paper``)."""
+    return model_settings(cfg).feedforward.method
 
 
 @dataclass(frozen=True, eq=False)

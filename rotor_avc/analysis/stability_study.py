@@ -28,7 +28,8 @@ import numpy as np
 from ..config import Section
 from ..errors import ConfigError
 from ..machine import MODELS, Machine, machine_from_section
-from ..settings import ThresholdSettings, analysis_settings
+from ..model_config.roller_bearing_rotor import StudySettings
+from ..settings import ThresholdSettings, analysis_settings, read_settings
 from ..studies.engine import StudySpec, run_study as run_points
 from ..studies.overrides import with_overrides
 from ..studies.points import Grid, Vary, parse_vary
@@ -94,17 +95,9 @@ def study_from_config(cfg: Section, name: str) -> tuple[Section, list[Vary]]:
         raise studies.error(name, "no such study",
                             fix="use one of: " + (", ".join(map(str, studies.keys())) or "(none defined)"))
     sec = studies.section(name)
-    sec.check_keys(("variants", "vary"))
-    variants = sec.raw("variants", [])
-    if not isinstance(variants, list):
-        raise sec.error("variants", "must be a list of variant names",
-                        fix="write [d] or [demo, velocity_feedback]")
-    vary = sec.raw("vary")
-    if not isinstance(vary, list) or not 1 <= len(vary) <= 2 or not all(isinstance(v, str) for v in vary):
-        raise sec.error("vary", "must be a list of one or two `PATHS=RANGE` strings",
-                        fix='write ["bearings.stiffness_n_per_m.z=1.0e+8:3.0e+8:21"]')
-    return (with_variants(cfg, variants),
-            [parse_vary(v, f"{sec.path}.vary[{i}]") for i, v in enumerate(vary)])
+    study = read_settings(StudySettings, sec)
+    return (with_variants(cfg, study.variants),
+            [parse_vary(v, f"{sec.path}.vary[{i}]") for i, v in enumerate(study.vary)])
 
 
 # -- running a study ----------------------------------------------------------------------------
