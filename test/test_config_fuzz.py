@@ -14,7 +14,8 @@ import pytest
 import yaml
 
 from rotor_avc.cli import main
-from rotor_avc.config import MAX_YAML_DEPTH, load_yaml
+from rotor_avc.config import load_yaml
+from rotor_avc.yaml_reading import MAX_YAML_DEPTH
 from rotor_avc.sim.timeseries import TimeSeries
 
 ROOT = Path(__file__).resolve().parents[1]

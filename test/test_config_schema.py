@@ -14,8 +14,8 @@ from jsonschema import Draft202012Validator
 from rotor_avc import config_schema
 from rotor_avc.cli import main
 from rotor_avc.cli.config_cmd import load_resolved
-from rotor_avc.config_schema import (REQUIRED_MAPPING, SECTION, VALUE, declared, family,
-                                     language, nested, reference_document, schema)
+from rotor_avc.config_documents import REQUIRED_MAPPING, nested, reference_document
+from rotor_avc.config_schema import SECTION, VALUE, declared, family, language, schema
 from rotor_avc.machine import MODELS, load_machine, machine_from_config
 from rotor_avc.scenario import scenario_from_machine
 

@@ -37,6 +37,7 @@ from .mcap_writer import MAGIC, MESSAGE_HEADER
 from .metadata import CONFIG_RECORD, COUNTS_RECORD, decode_config, decode_counts, parse_qos_yaml
 from .msgdefs import MsgDefError, parse_schema
 from .records import RecordError, chunk_messages, open_chunk
+from .series import TopicSeries, series_of_messages
 from .topics import labels_of
 
 #: messages decoded at once by :meth:`BagReader.series_chunks` from a file without indexes
@@ -64,38 +65,6 @@ class BagMessage:
     publish_time_ns: int
     sequence: int
     data: Any          # dict (decoded) or bytes (raw)
-
-
-@dataclass
-class TopicSeries:
-    """One topic as arrays: ``time_ns`` (log time) and every numeric field by path
-    (``accel.linear.z``, ``position`` (N, count), ``header.stamp.sec`` ...). For a labelled
-    array ``series["bearing_D_vz"]`` is that column of ``data``; ``"position[0]"`` picks one
-    element of a sequence field."""
-
-    topic: str
-    msg_type: str
-    time_ns: np.ndarray
-    fields: dict[str, np.ndarray]
-    labels: list[str]
-
-    @property
-    def time_s(self) -> np.ndarray:
-        return self.time_ns * 1e-9
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name in self.fields:
-            return self.fields[name]
-        if name in self.labels and "data" in self.fields:
-            return self.fields["data"][:, self.labels.index(name)]
-        base, _, rest = name.partition("[")
-        if rest.endswith("]") and rest[:-1].isdigit() and base in self.fields:
-            column = int(rest[:-1])
-            values = self.fields[base]
-            if values.ndim == 2 and column < values.shape[1]:
-                return values[:, column]
-        raise BagError(self.topic, f"no field {name!r}",
-                       fix="use one of " + ", ".join(list(self.fields) + self.labels))
 
 
 class BagReader:
@@ -337,18 +306,8 @@ class BagReader:
 
     def _messages_series(self, topic: str, times, payloads) -> TopicSeries:
         """Messages decoded one by one; the numeric fields every message has in one shape."""
-        flat, labels = [], []
-        for data in payloads:
-            msg = self._decode(topic, data)
-            flat.append(dict(_numeric_leaves(msg, "")))
-            labels = labels or labels_of(msg)
-        common = set(flat[0]).intersection(*flat[1:])
-        fields = {}
-        for path in flat[0]:
-            if path in common and len({np.shape(f[path]) for f in flat}) == 1:
-                fields[path] = np.array([f[path] for f in flat])
-        return TopicSeries(topic, self.codec(topic).type_name, np.asarray(times, np.int64),
-                           fields, labels)
+        return series_of_messages(topic, self.codec(topic).type_name, times,
+                                  [self._decode(topic, data) for data in payloads])
 
     def log_times(self, topic: str) -> np.ndarray:
         """Log times (ns) of a topic's messages, sorted: from the message indexes without
@@ -478,18 +437,3 @@ class BagReader:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def _numeric_leaves(msg: dict, prefix: str):
-    for key, value in msg.items():
-        path = prefix + key
-        if isinstance(value, dict):
-            yield from _numeric_leaves(value, path + ".")
-        elif isinstance(value, np.ndarray):
-            yield path, value
-        elif isinstance(value, list):
-            for i, item in enumerate(value):
-                if isinstance(item, dict):
-                    yield from _numeric_leaves(item, f"{path}[{i}].")
-        elif isinstance(value, (int, float, bool)):
-            yield path, value

@@ -1,13 +1,14 @@
 """``rotor-avc config``: the configuration language -- its JSON Schema, a file checked and
-resolved, one resolved value, a starting config, the reference (rotor_avc.config_schema)."""
+resolved, one resolved value, a starting config, the reference (rotor_avc.config_schema, rotor_avc.config_documents)."""
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
 from ..config import find_config
-from ..config_schema import (Resolved, nested, reference_document, resolve, schema, template,
-                             yaml_text)
+from ..config_documents import (Resolved, nested, reference_document, resolve, template,
+                                yaml_text)
+from ..config_schema import schema
 from ..errors import ConfigError
 from ..machine import MODELS, load_machine, model_supports
 from ..output_files import write_text

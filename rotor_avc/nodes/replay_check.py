@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bag.reader import BagReader, _numeric_leaves
+from ..bag.reader import BagReader
+from ..bag.series import numeric_leaves
 from . import messages as m
 from .replay import ReplayPlan, ReplayResult
 
@@ -64,7 +65,7 @@ def _leaf_difference(live: dict, recorded: dict) -> tuple[float, float]:
     """(max |live - recorded| over every numeric field, max |recorded| over the floating-point
     fields, i.e. the values without the stamps); inf when the structures differ or only one
     of two values is NaN."""
-    a, b = dict(_numeric_leaves(live, "")), dict(_numeric_leaves(recorded, ""))
+    a, b = dict(numeric_leaves(live, "")), dict(numeric_leaves(recorded, ""))
     if a.keys() != b.keys():
         return float("inf"), 0.0
     diff = scale = 0.0
