@@ -3,28 +3,19 @@ roller_bearing_rotor`` (Werner 2017) and ``model: active_bearing`` (Sci. Rep. 20
 answered with the closest one, bounds refused with field and unit, cross-field rules, and a
 reference row for every key the shipped configs use."""
 import copy
-import dataclasses
-import re
-from pathlib import Path
 
 import pytest
+from declared_models import (ROOT, assert_every_shipped_key_has_a_reference_row,
+                             assert_model_keys_are_the_declared_fields)
 
 from rotor_avc.config import Section, load_yaml
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import machine_from_config
 from rotor_avc.model_config import active_bearing, roller_bearing_rotor, sleeve_bearing_motor
-from rotor_avc.settings import _rows
 
-ROOT = Path(__file__).resolve().parents[1]
 MODULES = {"sleeve_bearing_motor": sleeve_bearing_motor,
            "roller_bearing_rotor": roller_bearing_rotor, "active_bearing": active_bearing}
 SLEEVE, ROLLER, ACTIVE = "sleeve_bearing_motor", "roller_bearing_stability", "active_bearing"
-
-
-def shipped(model: str) -> dict[str, dict]:
-    """The shipped configs of ``model`` (includes resolved)."""
-    configs = {p.stem: load_yaml(p) for p in sorted((ROOT / "config").glob("*.yaml"))}
-    return {name: data for name, data in configs.items() if data.get("model") == model}
 
 
 def parent(data: dict, path: str) -> tuple[dict, str]:
@@ -165,34 +156,9 @@ def test_the_analysis_sections_are_required_by_their_readers_only():
 
 
 def test_model_keys_are_the_declared_fields():
-    for module in MODULES.values():
-        assert module.MODEL_KEYS == tuple(f.name for f in dataclasses.fields(module.MODEL_SETTINGS))
-
-
-def leaves(data, path=()):
-    if isinstance(data, dict):
-        for key, value in data.items():
-            yield from leaves(value, path + (str(key),))
-    else:
-        yield ".".join(path)
+    assert_model_keys_are_the_declared_fields(MODULES.values())
 
 
 @pytest.mark.parametrize("model", sorted(MODULES))
 def test_every_key_of_the_shipped_configs_has_a_reference_row(model):
-    """Every leaf has its row (``<name>`` a named entry), or lies below a row of named entries
-    that are values, not declared mappings (``rotor.bearing_arm_m.1``, ``variants.b.<path>``)."""
-    module = MODULES[model]
-    rows = [(path.lstrip("."), kind) for path, kind, *_ in _rows(module.MODEL_SETTINGS, "")]
-    paths = [path for path, _ in rows]
-    exact = [re.escape(r).replace(re.escape("<name>"), r"[^.]+") + "$" for r in paths]
-    values = [re.escape(r) + r"\." for r, kind in rows if kind.startswith("mapping of names")
-              and not any(p.startswith(f"{r}.<name>.") for p in paths)]
-    patterns = [re.compile(p) for p in exact + values]
-    configs = shipped(model)
-    assert configs, f"no shipped config of model {model}"
-    for name, data in configs.items():
-        mine = {k: v for k, v in data.items() if k in module.MODEL_KEYS}
-        for leaf in leaves(mine):
-            assert any(p.match(leaf) for p in patterns), f"{name}: {leaf} has no reference row"
-    for path, kind, default, what in _rows(module.MODEL_SETTINGS, ""):
-        assert what, f"{path} has no meaning"
+    assert_every_shipped_key_has_a_reference_row(MODULES[model], model)

@@ -2,26 +2,17 @@
 (Zhou & Shi 2001): misspelt keys answered with the closest one, bounds refused with field and
 unit, cross-field rules, and a reference row for every key the shipped configs use."""
 import copy
-import dataclasses
-import re
-from pathlib import Path
 
 import pytest
+from declared_models import (ROOT, assert_every_shipped_key_has_a_reference_row,
+                             assert_model_keys_are_the_declared_fields)
 
 from rotor_avc.config import load_yaml
 from rotor_avc.errors import ConfigError
 from rotor_avc.machine import machine_from_config
 from rotor_avc.model_config import foot_mount_3d, rigid_rotor
-from rotor_avc.settings import _rows
 
-ROOT = Path(__file__).resolve().parents[1]
 MODULES = {"foot_mount_3d": foot_mount_3d, "rigid_rotor": rigid_rotor}
-
-
-def shipped(model: str) -> dict[str, dict]:
-    """The shipped configs of ``model`` (includes resolved)."""
-    configs = {p.stem: load_yaml(p) for p in sorted((ROOT / "config").glob("*.yaml"))}
-    return {name: data for name, data in configs.items() if data.get("model") == model}
 
 
 def loaded(config: str) -> dict:
@@ -103,29 +94,9 @@ def test_the_mounting_rules_name_the_field_and_the_fix():
 
 
 def test_model_keys_are_the_declared_fields():
-    for module in MODULES.values():
-        assert module.MODEL_KEYS == tuple(f.name for f in dataclasses.fields(module.MODEL_SETTINGS))
-
-
-def leaves(data, path=()):
-    if isinstance(data, dict):
-        for key, value in data.items():
-            yield from leaves(value, path + (str(key),))
-    else:
-        yield ".".join(path)
+    assert_model_keys_are_the_declared_fields(MODULES.values())
 
 
 @pytest.mark.parametrize("model", sorted(MODULES))
 def test_every_key_of_the_shipped_configs_has_a_reference_row(model):
-    module = MODULES[model]
-    rows = [path.lstrip(".") for path, *_ in _rows(module.MODEL_SETTINGS, "")]
-    patterns = [re.compile(re.escape(r).replace(re.escape("<name>"), r"[^.]+") + "$")
-                for r in rows]
-    configs = shipped(model)
-    assert configs, f"no shipped config of model {model}"
-    for name, data in configs.items():
-        mine = {k: v for k, v in data.items() if k in module.MODEL_KEYS}
-        for leaf in leaves(mine):
-            assert any(p.match(leaf) for p in patterns), f"{name}: {leaf} has no reference row"
-    for path, kind, default, what in _rows(module.MODEL_SETTINGS, ""):
-        assert what, f"{path} has no meaning"
+    assert_every_shipped_key_has_a_reference_row(MODULES[model], model)
