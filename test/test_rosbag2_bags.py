@@ -135,7 +135,7 @@ def test_mapping_errors_name_the_field(corpus, tmp_path, capsys, change, field):
 def test_config_and_map_go_together(corpus, capsys):
     root, bag = corpus
     assert main(["compare", str(bag), "--map", str(root / "map.yaml")]) == 2
-    assert "--config/--map: a mapped comparison needs both" in capsys.readouterr().err
+    assert "--map: a mapped comparison needs the machine too" in capsys.readouterr().err
     assert main(["compare", str(bag)]) == 2          # a directory without rotor_avc metadata
     assert "carries no run configuration" in capsys.readouterr().err
 

@@ -27,6 +27,7 @@ COMMANDS = [
     "replay",                                                # bags into the ROS graph
     "bag",                                                   # bag info, check, recover
     "runup",                                                 # views of a recorded run-up
+    "calibrate",                                             # a model fitted to recordings
     "config",                                                # the configuration language
 ]
 #: command -> its module, where they differ (``config.py`` would read as the config loader)

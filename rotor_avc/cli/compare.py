@@ -9,6 +9,7 @@ from ..compare.comparison import compare_bag
 from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
+from ..machine import load_machine
 from .common import output_folder
 
 NAME = "compare"
@@ -35,9 +36,12 @@ def add_arguments(p) -> None:
     p.add_argument("bag", type=Path, help="the recorded run: a .mcap bag with the run's "
                                           "configuration (rotor-avc simulate --out, recorder), "
                                           "or any .mcap file or rosbag2 directory with --map")
-    p.add_argument("--config", help="machine config of the recorded machine (with --map); a "
-                                    "`simulation:` section is optional (sample rate, unbalance, "
-                                    "test_signal): speeds and duration come from the recording")
+    p.add_argument("--config", help="machine config of the recorded machine (with --map; a "
+                                    "`simulation:` section is optional: sample rate, unbalance, "
+                                    "test_signal; speeds and duration come from the recording); "
+                                    "for a bag this package wrote, the machine the recorded run "
+                                    "is compared with instead of the bag's own (e.g. a "
+                                    "calibrated one)")
     p.add_argument("--map", type=Path, help="mapping file: topics and fields -> model signals, "
                                             "shaft source, unbalance reference (README)")
     p.add_argument("--out", type=output_folder, default=None,
@@ -49,12 +53,14 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    if (args.config is None) != (args.map is None):
-        raise ConfigError("--config/--map", "a mapped comparison needs both",
-                          fix="give --config MACHINE.yaml and --map MAP.yaml, or neither for a "
-                              "bag this package wrote")
-    comp = (compare_bag(args.bag, in_memory=args.in_memory) if args.map is None
-            else compare_mapped(args.bag, args.config, args.map, args.in_memory))
+    if args.map is not None and args.config is None:
+        raise ConfigError("--map", "a mapped comparison needs the machine too",
+                          fix="give --config MACHINE.yaml with --map MAP.yaml")
+    if args.map is None:
+        machine = None if args.config is None else load_machine(args.config)
+        comp = compare_bag(args.bag, in_memory=args.in_memory, machine=machine)
+    else:
+        comp = compare_mapped(args.bag, args.config, args.map, args.in_memory)
     out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
     report(comp, args.bag, out)
     return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)

@@ -70,6 +70,9 @@ class OneX:
     channels: dict[str, dict] = field(default_factory=dict)  # model -> channel metrics
     #: channel -> relative drift of the 1x phasor within its window (stepped dwells only)
     drift: dict[str, np.ndarray] = field(default_factory=dict)
+    #: channel -> standard error of each quadrature component of the measured phasor (from the
+    #: residual of its least-squares fit), per unit of ``reference``
+    sigma: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass

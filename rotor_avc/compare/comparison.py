@@ -130,17 +130,20 @@ def _with_foot_accelerations(plant):
     return dataclasses.replace(plant, outputs=plant.outputs + extra)
 
 
-def _loops(run: RecordedRun) -> dict:
-    machine, T = run.machine, run.sample_period_s
+def model_loops(scenario, kinds=("continuous", "sampled")) -> dict:
+    """The scenario's continuous and sampled closed loops (the foot accelerations as outputs)."""
+    machine, T = scenario.machine, scenario.sample_period_s
     plant = _with_foot_accelerations(machine.plant)
-    return {"continuous": ClosedLoop(plant, machine.controllers),
-            "sampled": SampledLoop.from_blocks(plant, build_digital_controllers(machine, T), T)}
+    build = {"continuous": lambda: ClosedLoop(plant, machine.controllers),
+             "sampled": lambda: SampledLoop.from_blocks(
+                 plant, build_digital_controllers(machine, T), T)}
+    return {kind: build[kind]() for kind in kinds}
 
 
-def _unbalance_models(run, loops, speeds, u_ref, channels) -> dict[str, dict[str, np.ndarray]]:
+def unbalance_models(scenario, loops, speeds, u_ref, channels) -> dict[str, dict[str, np.ndarray]]:
     """Superposed 1x response ``sum_j G_j u_j / u_ref`` of each channel, per model."""
-    w_F = run.scenario.damping.w_F(run.machine.plant, speeds)
-    amps = {k: v for k, v in run.scenario.amplitudes.items() if v != 0}
+    w_F = scenario.damping.w_F(scenario.machine.plant, speeds)
+    amps = {k: v for k, v in scenario.amplitudes.items() if v != 0}
     out = {}
     for name, loop in loops.items():
         frf = (unbalance_frf(loop, speeds, list(amps), w_F) if name == "continuous"
@@ -233,11 +236,12 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
     measured = {ch: track.phasors[ch][order] for ch in channels}
     drift = ({ch: track.drift[ch][order] for ch in channels} if method == "stepped-speed dwells"
              else {})
+    sigma = {ch: track.sigma[ch][order] for ch in channels if ch in track.sigma}
     inputs = {ch: measured[ch] for ch in channels if ch.startswith(HARMONIC)}
     outputs = [ch for ch in channels if ch not in inputs]
-    model = _unbalance_models(run, loops, speeds, u_ref, outputs)
+    model = unbalance_models(run.scenario, loops, speeds, u_ref, outputs)
     dense_speeds = {m: _dense_speeds(run, speeds, m) for m in loops}
-    dense = {m: _unbalance_models(run, {m: loops[m]}, dense_speeds[m], u_ref, outputs)[m]
+    dense = {m: unbalance_models(run.scenario, {m: loops[m]}, dense_speeds[m], u_ref, outputs)[m]
              for m in loops}
     if inputs:
         driven = _harmonic_models(run, loops, speeds, inputs, outputs)
@@ -249,7 +253,7 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
                              + 1j * np.interp(dense_speeds[m], speeds, v.imag)
                              for ch, v in inputs.items()})
     one = OneX(method, settings, reference, units, speeds, measured, model, dense_speeds, dense,
-               drift=drift)
+               drift=drift, sigma=sigma)
     _one_x_metrics(one)
     return one
 
@@ -334,7 +338,7 @@ def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
 
 def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
     """Continuous and sampled-loop poles (``s``, 1/s) at each speed with the run's ``w_F``."""
-    loops = _loops(run)
+    loops = model_loops(run.scenario)
     out = []
     for speed in speeds_rad_s:
         w_F = float(run.scenario.damping.w_F(run.machine.plant, np.array(speed)))
@@ -353,7 +357,7 @@ def compare_run(run: RecordedRun) -> Comparison:
     if run.scenario.use_balancer:
         raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
                          "the fixed-unbalance models do not describe; compare a run without it")
-    loops = _loops(run)
+    loops = model_loops(run.scenario)
     one = compare_one_x(run, loops) if one_x_channels(run) else None
     bbs = compare_broadband(run, loops)
     notes = list(run.notes)                   # after the passes over the run (a streamed bag)
@@ -397,9 +401,15 @@ def compare_run(run: RecordedRun) -> Comparison:
     return Comparison(run, one, bbs, poles, checks, reference, notes, reason)
 
 
-def compare_bag(path, in_memory: bool = False) -> Comparison:
+def compare_bag(path, in_memory: bool = False, machine=None) -> Comparison:
     """Compare a bag, a .mcap file streamed (:class:`~rotor_avc.compare.bag_source.BagSource`)
     or, with ``in_memory`` and for a rosbag2 directory, read into memory first
-    (:func:`read_run`)."""
+    (:func:`read_run`); with ``machine``, the models are that machine's in the recorded scenario
+    (sample rate, speeds, unbalance, damping rule and test force as the run had them)."""
     streamed = not in_memory and not Path(path).is_dir()
-    return compare_run(BagSource(path) if streamed else read_run(path))
+    run = BagSource(path) if streamed else read_run(path)
+    if machine is not None:
+        run.scenario = dataclasses.replace(run.scenario, machine=machine)
+        run.notes.append(f"models: the machine of {machine.config.source}, in the recorded "
+                         "scenario")
+    return compare_run(run)

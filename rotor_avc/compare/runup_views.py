@@ -24,7 +24,7 @@ import scipy.signal
 from ..errors import ModelError
 from ..analysis.api684 import check_response
 from ..closed_loop.loop import ClosedLoop
-from .comparison import _unbalance_models, _with_foot_accelerations, measured_one_x
+from .comparison import unbalance_models, _with_foot_accelerations, measured_one_x
 from .recorded_run import RecordedRun
 
 
@@ -82,7 +82,7 @@ def one_x_track(run: RecordedRun, channels: list[str], n_model: int = 2000) -> O
     machine = run.machine
     loop = ClosedLoop(_with_foot_accelerations(machine.plant), machine.controllers)
     dense = np.linspace(track.speed_hz.min(), track.speed_hz.max(), n_model)
-    model = _unbalance_models(run, {"continuous": loop}, 2 * np.pi * dense, 1.0, channels)
+    model = unbalance_models(run.scenario, {"continuous": loop}, 2 * np.pi * dense, 1.0, channels)
     half = np.pi * track.revolutions / track.speed_rad_s        # half a window's duration
     return OneXTrack(track.speed_hz, {c: track.phasors[c] for c in channels}, dense,
                      model["continuous"], {c: channel_unit(run, c) for c in channels}, method,
