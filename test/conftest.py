@@ -44,7 +44,7 @@ KINDS = {
                      "rosbag2_corpus", "runup", "sim_loop", "sim_stepper",
                      "sleeve_bearing_control", "sleeve_bearing_sim",
                      "sleeve_bearing_whirl_iteration", "stability_time_domain", "studies",
-                     "studies_dask", "calibrate"),
+                     "studies_dask", "calibrate", "calibrate_uff"),
     "ros_integration": ("colcon", "compare_ros", "foot_controller_input", "graph_recording",
                         "node_parameters", "node_signals", "node_transport", "nodes_messages",
                         "packaging", "plotjuggler_arrays",

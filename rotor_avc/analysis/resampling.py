@@ -13,7 +13,8 @@ instead of the simulator's exact angle. The method:
   ``p`` s is the filter ``(1 - a) e^{-j w a p} + a e^{j w (1 - a) p}`` for a grid point a
   fraction ``a`` past a sample (``cos(pi f p)`` at mid-interval); :func:`interpolation_loss_db`
   averages it over the grid (``sinc^2(f p)`` for a channel at another rate, 1 for one sampled on
-  the grid), which the report states at the highest frequency compared;
+  the grid), which the report states at the highest frequency compared; an FRF between resampled
+  channels is divided by the ratio of their :func:`interpolation_gain` (output over input);
 * :func:`shaft_from_pulses` -- revolution ``k`` at pulse time ``t_k``: the angle is
   ``2 pi k + angle_at_pulse`` interpolated linearly between pulses, the speed
   ``2 pi n_k / (t_{k+1} - t_k)`` per interval. The revolutions are counted from the intervals
@@ -146,20 +147,29 @@ def resample(stamps_s, values, grid_s, max_missing: int) -> tuple[np.ndarray, np
     return out, valid
 
 
-def interpolation_loss_db(stamps_s, grid_s, freq_hz: float) -> float:
-    """Magnitude loss (dB, >= 0) at ``freq_hz`` of linear interpolation from ``stamps_s`` onto
-    ``grid_s``: ``-20 log10 |mean_i((1 - a_i) e^{-j w a_i d_i} + a_i e^{j w (1 - a_i) d_i})|``
-    over the grid points (the interpolated ``e^{j w t}`` over the true one), with ``a_i`` the
-    fraction of its interval ``d_i`` a point lies past the sample before it (no loss for a
-    channel sampled on the grid; ``-20 log10 sinc^2(f p)`` for one at another rate)."""
+def interpolation_gain(stamps_s, grid_s, freq_hz, max_points: int = 4096) -> np.ndarray:
+    """Complex gain at each of ``freq_hz`` of linear interpolation from ``stamps_s`` onto
+    ``grid_s``: ``mean_i((1 - a_i) e^{-j w a_i d_i} + a_i e^{j w (1 - a_i) d_i})`` over the grid
+    points (the interpolated ``e^{j w t}`` over the true one), with ``a_i`` the fraction of its
+    interval ``d_i`` a point lies past the sample before it (1 for a channel sampled on the grid;
+    ``sinc^2(f p)`` for one at another rate). At most ``max_points`` grid points, evenly spread,
+    enter the mean."""
     t = np.asarray(stamps_s, dtype=float)
     grid = np.asarray(grid_s, dtype=float)
+    if grid.size > max_points:
+        grid = grid[np.linspace(0, grid.size - 1, max_points).round().astype(int)]
     right = np.clip(np.searchsorted(t, grid, side="right"), 1, t.size - 1)
     d = t[right] - t[right - 1]
     a = np.clip((grid - t[right - 1]) / d, 0.0, 1.0)
-    w = 2 * np.pi * freq_hz
-    gain = np.mean((1 - a) * np.exp(-1j * w * a * d) + a * np.exp(1j * w * (1 - a) * d))
-    return float(-20.0 * np.log10(abs(gain)))
+    w = 2 * np.pi * np.atleast_1d(np.asarray(freq_hz, dtype=float))[:, None]
+    return np.mean((1 - a) * np.exp(-1j * w * a * d) + a * np.exp(1j * w * (1 - a) * d), axis=1)
+
+
+def interpolation_loss_db(stamps_s, grid_s, freq_hz: float) -> float:
+    """Magnitude loss (dB, >= 0) at ``freq_hz`` of :func:`interpolation_gain` over every grid
+    point."""
+    gain = interpolation_gain(stamps_s, grid_s, freq_hz, max_points=np.asarray(grid_s).size)
+    return float(-20.0 * np.log10(abs(gain[0])))
 
 
 @dataclass

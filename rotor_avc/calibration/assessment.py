@@ -53,6 +53,8 @@ def assess(target: Target, machine, residual: np.ndarray, dof: int, dense: dict)
     """The measures of the module docstring for one recording and one machine (``dense`` its
     :func:`dense_model`)."""
     out = {"chi2": float(residual @ residual / max(dof, 1)), "points": target.points}
+    if target.band:
+        out["frac_h1"] = band_frac(target, machine)
     if not target.channels:
         return out
     speeds = target.speed_rad_s
@@ -79,6 +81,20 @@ def assess(target: Target, machine, residual: np.ndarray, dof: int, dense: dict)
     out.update({"one_x_error": errors, "frac": fracs, "mac": macs,
                 "resonances": resonances(target, dense)})
     return out
+
+
+def band_frac(target: Target, machine) -> dict[str, float]:
+    """FRAC per output over the used H1 bins, all broadband dwells together."""
+    _, loops = target.loops(machine)
+    measured, model = {}, {}
+    for b in target.band:
+        H = b.model(loops)
+        for i, name in enumerate(b.outputs):
+            use = b.used[:, i]
+            measured.setdefault(name, []).append(b.h1[use, i])
+            model.setdefault(name, []).append(H[use, i])
+    return {name: frac(np.concatenate(measured[name]), np.concatenate(model[name]))
+            for name in measured}
 
 
 def resonances(target: Target, dense: dict) -> list[dict]:

@@ -7,13 +7,13 @@ parameters, then how sure it is.
    (rotor_avc.studies: in this process, local processes or a Dask cluster; the residual is a pure
    function, so every backend gives the same bits).
 2. **Screening.** At the configured values, with the measured uncertainty alone (reduced
-   chi-square 1): a parameter whose 10 % change moves no measured point by twice its standard
-   uncertainty is *insensitive* (its effect nowhere tells from the noise at 95 %; many such
-   small effects add up in the residual's norm only if the points' errors were independent, which
-   a sensor's calibration error is not); of two whose estimates correlate beyond 0.95 the less sensitive
+   chi-square 1): a parameter whose 10 % change moves the weighted residual (the channels'
+   calibration gains profiled out, rotor_avc.calibration.problem) by less than two standard
+   deviations is *insensitive* (its effect does not tell from the noise and the sensors'
+   calibration at 95 %); of two whose estimates correlate beyond 0.95 the less sensitive
    is *collinear* with the other; a parameter whose standard deviation exceeds 10 % of its
-   value (several nearly collinear together) is *uncertain*. Those keep their configured values,
-   are reported ``identifiable: false`` with the reason, and are not fitted.
+   value (several nearly collinear together) is *poorly determined*. Those keep their configured
+   values, are reported ``identifiable: false`` with the reason, and are not fitted.
 3. **Fit.** scipy's trust-region reflective least squares (``least_squares(method="trf")``,
    Branch, Coleman & Li 1999) inside the bounds, from the configured values; with ``starts``
    more seeded starts (log-uniform inside positive bounds, uniform otherwise; start ``k`` from
@@ -23,8 +23,10 @@ parameters, then how sure it is.
    chi-square of the residual, but at least 1 (a model error widens the intervals; they are
    never narrower than the stated measurement uncertainty gives), standard deviations, the
    95 % intervals ``value +- t(0.975, m - n) std`` (Student's t, ``m`` residuals, ``n``
-   parameters) and the correlation matrix; a fitted parameter that fails the screening's rules
-   there (with ``s^2`` in place of 1) is fixed at its configured value and the rest refitted.
+   parameters) and the correlation matrix. A fitted parameter is *identifiable* when its 95 %
+   interval lies within ``identified_within`` (default 2 %) of its value and it correlates with
+   no other beyond 0.95; else it is reported *uncertain* (``identifiable: false``) with its
+   value and interval -- the fit's value is kept, but not presented as known.
 """
 from __future__ import annotations
 
@@ -40,12 +42,14 @@ from ..studies.engine import run_study
 from ..studies.spec import StudySpec
 from .problem import Columns, FitEvaluator, Problem, ResidualEvaluator, Starts
 
-#: a change of this fraction of a parameter must move a measured point by DETECTABLE of its
-#: standard uncertainties
+#: a change of this fraction of a parameter must move the weighted residual by DETECTABLE
+#: standard deviations
 SENSITIVITY_CHANGE = 0.1
 DETECTABLE = 2.0
 MAX_CORRELATION = 0.95
 MAX_RELATIVE_STD = 0.1
+#: a fitted parameter is identified when its 95 % interval lies within this fraction of it
+IDENTIFIED_WITHIN = 0.02
 RELATIVE_STEP = 1e-6
 MAX_EVALUATIONS = 200
 CONFIDENCE = 0.95
@@ -57,14 +61,15 @@ class Screen:
 
     free: list[int]
     reasons: dict[int, str]
-    #: largest change of a measured point, in its standard uncertainties, per 100 % change
+    #: change of the weighted residual, in standard deviations, per 100 % change
     sensitivity: np.ndarray
     condition: float
 
 
 @dataclass
 class Fit:
-    """The outcome (values in the parameters' units; ``None`` where not identifiable)."""
+    """The outcome (values in the parameters' units; ``std`` and ``ci95`` ``None`` where not
+    fitted)."""
 
     values: np.ndarray
     std: list
@@ -83,6 +88,8 @@ class Fit:
     #: parameter (every parameter)
     jacobian: np.ndarray | None = None
     elapsed_s: float = 0.0
+    #: fitted (the screening kept it): identifiable, or uncertain with its interval
+    fitted: list[bool] = field(default_factory=list)
 
 
 def steps(z: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -123,18 +130,17 @@ def _condition(J: np.ndarray) -> float:
     return float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
 
 
-def screen(J: np.ndarray, z: np.ndarray, labels: list[str], s2: float = 1.0,
-           candidates=None) -> Screen:
-    """The rules of step 2 (module docstring) on the columns ``candidates`` of ``J``."""
-    n = J.shape[1]
-    free = list(range(n) if candidates is None else candidates)
-    sens = np.abs(J).max(axis=0, initial=0.0) * np.abs(z) / np.sqrt(s2)
+def screen(J: np.ndarray, z: np.ndarray, labels: list[str], s2: float = 1.0) -> Screen:
+    """The rules of step 2 (module docstring) on the columns of ``J``."""
+    free = list(range(J.shape[1]))
+    sens = np.linalg.norm(J, axis=0) * np.where(z != 0, np.abs(z), 1.0) / np.sqrt(s2)
     reasons: dict[int, str] = {}
     for j in list(free):
         if SENSITIVITY_CHANGE * sens[j] < DETECTABLE:
-            reasons[j] = (f"insensitive: a {SENSITIVITY_CHANGE:.0%} change moves no measured "
-                          f"point by more than {SENSITIVITY_CHANGE * sens[j]:.2g} standard "
-                          f"uncertainties (below the noise: {DETECTABLE:g} needed)")
+            reasons[j] = (f"insensitive: a {SENSITIVITY_CHANGE:.0%} change moves the weighted "
+                          f"residual by {SENSITIVITY_CHANGE * sens[j]:.2g} standard deviations "
+                          f"(below the noise and the sensors' calibration: {DETECTABLE:g} "
+                          "needed)")
             free.remove(j)
     while len(free) > 1:
         cov = _covariance(J[:, free], s2)
@@ -154,8 +160,8 @@ def screen(J: np.ndarray, z: np.ndarray, labels: list[str], s2: float = 1.0,
         worst = int(np.argmax(rel))
         if rel[worst] <= MAX_RELATIVE_STD:
             break
-        reasons[free[worst]] = (f"uncertain: standard deviation {rel[worst]:.0%} of the value "
-                                f"(> {MAX_RELATIVE_STD:.0%})")
+        reasons[free[worst]] = (f"poorly determined: standard deviation {rel[worst]:.0%} of the "
+                                f"value (> {MAX_RELATIVE_STD:.0%})")
         free.pop(worst)
     return Screen(free, reasons, sens, _condition(J[:, free]) if free else float("inf"))
 
@@ -224,7 +230,8 @@ def start_points(bounds, z0: np.ndarray, count: int, seed: int) -> list[np.ndarr
 
 
 def calibrate(problem: Problem, backend=None, starts: int = 0, seed: int = 0,
-              report=None, batch_size: int | None = None) -> Fit:
+              report=None, batch_size: int | None = None,
+              identified_within: float = IDENTIFIED_WITHIN) -> Fit:
     """Steps 1-4 of the module docstring."""
     t0 = time.perf_counter()
     params = problem.params
@@ -240,28 +247,16 @@ def calibrate(problem: Problem, backend=None, starts: int = 0, seed: int = 0,
     if not free:
         raise ModelError("no parameter is identifiable from these recordings: " + "; ".join(
             f"{labels[j]}: {why}" for j, why in sorted(reasons.items())))
-    evaluations, tried = 1 + len(params), []
-    while True:
-        best, tried = _best_fit(problem, z0, free, bounds, backend, starts, seed, report,
-                                batch_size)
-        evaluations += sum(t["nfev"] for t in tried)
-        z = best
-        r = problem.scaled_residual(z)
-        J = jacobian(problem, z, free, r, bounds[1], backend, batch_size)
-        evaluations += 1 + len(free)
-        dof = max(r.size - len(free), 1)
-        chi2 = float(r @ r / dof)
-        s2 = max(chi2, 1.0)
-        again = screen(J, z[free], [labels[j] for j in free], s2)
-        if not again.reasons:
-            break
-        for k, why in again.reasons.items():
-            reasons[free[k]] = why + " (at the fitted values)"
-        free = [free[k] for k in again.free]
-        if not free:
-            raise ModelError("no parameter stays identifiable at the fitted values: " + "; ".join(
-                f"{labels[j]}: {why}" for j, why in sorted(reasons.items())))
-    cov = _covariance(J, s2)
+    best, tried = _best_fit(problem, z0, free, bounds, backend, starts, seed, report,
+                            batch_size)
+    evaluations = 1 + len(params) + sum(t["nfev"] for t in tried)
+    z = best
+    r = problem.scaled_residual(z)
+    J = jacobian(problem, z, free, r, bounds[1], backend, batch_size)
+    evaluations += 1 + len(free)
+    dof = max(r.size - len(free), 1)
+    chi2 = float(r @ r / dof)
+    cov = _covariance(J, max(chi2, 1.0))
     std_z = np.sqrt(np.diag(cov))
     corr = np.full((len(params), len(params)), np.nan)
     corr[np.ix_(free, free)] = cov / np.outer(std_z, std_z)
@@ -271,11 +266,20 @@ def calibrate(problem: Problem, backend=None, starts: int = 0, seed: int = 0,
     for k, j in enumerate(free):
         std[j] = float(std_z[k] * ref[j])
         ci[j] = [float(values[j] - t * std[j]), float(values[j] + t * std[j])]
-    return Fit(values, std, ci, corr, [j in free for j in range(len(params))],
+        others = [(abs(corr[j, i]), i) for i in free if i != j]
+        worst, other = max(others) if others else (0.0, j)
+        half = t * std[j] / abs(values[j]) if values[j] != 0 else np.inf
+        if worst > MAX_CORRELATION:
+            reasons[j] = (f"uncertain: correlates with {labels[other]} ({corr[j, other]:+.3f}) "
+                          "at the fitted values")
+        elif half > identified_within:
+            reasons[j] = (f"uncertain: its 95 % interval is +-{half:.2%} of the value (more "
+                          f"than +-{identified_within:.2%})")
+    return Fit(values, std, ci, corr, [j in free and j not in reasons for j in range(len(params))],
                [reasons.get(j, "") for j in range(len(params))], first.sensitivity,
                _condition(J), float(r0 @ r0 / max(r0.size - len(free), 1)), chi2, dof,
                evaluations, tried, J0 * np.where(z0 != 0, np.abs(z0), 1.0),
-               time.perf_counter() - t0)
+               time.perf_counter() - t0, [j in free for j in range(len(params))])
 
 
 def _best_fit(problem, z0, free, bounds, backend, starts, seed, report, batch_size):

@@ -22,11 +22,11 @@ def parameter_rows(cal: Calibration) -> list[dict]:
     fit = cal.fit
     rows = []
     for j, p in enumerate(cal.params):
-        ok = fit.identifiable[j]
         rows.append({
             "path": p.label, "unit": p.unit, "initial": p.initial,
-            "value": float(fit.values[j]) if ok else None, "std": fit.std[j],
-            "ci95": fit.ci95[j], "identifiable": ok, "reason": fit.reasons[j],
+            "value": float(fit.values[j]) if fit.fitted[j] else None, "std": fit.std[j],
+            "ci95": fit.ci95[j], "identifiable": fit.identifiable[j], "fitted": fit.fitted[j],
+            "reason": fit.reasons[j],
             "bounds": [p.lower, p.upper],
             "prior": None if p.prior is None else {"mean": p.prior[0], "std": p.prior[1]},
             "sensitivity": _finite(fit.sensitivity[j])})
@@ -42,7 +42,7 @@ def calibration_document(cal: Calibration) -> dict:
         "correlation": {"parameters": labels, "matrix": corr},
         "residual": {"before": fit.chi2_before, "after": fit.chi2_after, "dof": fit.dof,
                      "measure": "reduced chi-square of the weighted residual",
-                     "relative_floor": cal.floor},
+                     "sensor_uncertainty": cal.floor, "point_uncertainty": cal.point},
         "validation": cal.validation,
         "data": cal.fitted,
         "left_out": cal.left_out,

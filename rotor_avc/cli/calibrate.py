@@ -6,10 +6,11 @@ import sys
 import time
 from pathlib import Path
 
-from ..calibration.fit import MAX_EVALUATIONS
+from ..calibration.fit import IDENTIFIED_WITHIN, MAX_EVALUATIONS
 from ..calibration.results import calibration_document
+from ..calibration.problem import DEFAULT_SENSOR_UNCERTAINTY
+from ..calibration.targets import DEFAULT_POINT_UNCERTAINTY
 from ..calibration.session import CALIBRATED, run_calibration, write_configs
-from ..calibration.targets import DEFAULT_FLOOR
 from ..errors import ConfigError
 from ..output_files import make_folder, write_text
 from ..reports.calibration_report import write_calibration_html
@@ -27,7 +28,8 @@ HELP = ("Fit declared parameters of a machine configuration (masses, stiffnesses
         "after, validation on --validate recordings), DIR/calibrated.yaml (the configuration "
         "with the fitted values: `compare DATA --config DIR/calibrated.yaml` uses it) and "
         "DIR/index.html. Exit status 0 when every fitted recording compares PASS with the "
-        "calibrated machine, 1 otherwise, 2 for bad input or a fit that does not converge.")
+        "calibrated machine (measured FRFs have no compare verdict), 1 otherwise, 2 for bad "
+        "input or a fit that does not converge.")
 EXAMPLE = ("rotor-avc calibrate recording/ --config machine.yaml --map sensors.yaml "
            "--fit elements.actuator.stiffness_n_per_m.z,foundation.tan_delta "
            "--validate runup/ --out out/calibration")
@@ -36,10 +38,14 @@ EXAMPLE = ("rotor-avc calibrate recording/ --config machine.yaml --map sensors.y
 def add_arguments(p) -> None:
     p.add_argument("data", nargs="+", type=Path,
                    help="recordings to fit: bags this package wrote, or with --map any .mcap "
-                        "file or rosbag2 directory")
+                        "file or rosbag2 directory; UFF 58 files (.uff, .unv) of measured FRFs "
+                        "with --uff-map")
     p.add_argument("--config", required=True,
                    help="the machine configuration to calibrate (a YAML path or a shipped name)")
     p.add_argument("--map", type=Path, help="mapping file of the recordings (as for compare)")
+    p.add_argument("--uff-map", type=Path,
+                   help="mapping file of UFF 58 files among DATA (measured FRFs: input "
+                        "actuator, responses by node and direction, speed; README)")
     p.add_argument("--fit", action="append", required=True, metavar="PATH[,PATH...]",
                    help="declared numeric configuration paths to fit (rotor-avc config "
                         "reference); PATH* fits a factor on every number under PATH (e.g. a "
@@ -57,9 +63,20 @@ def add_arguments(p) -> None:
                    help="N more seeded starts inside the bounds, each fitted on the study "
                         "engine, against local minima (default 0)")
     p.add_argument("--seed", type=int, default=0, help="seed of the extra starts (default 0)")
-    p.add_argument("--floor", type=nonnegative_float, default=DEFAULT_FLOOR,
-                   help="relative uncertainty floor of every measured point: sensor "
-                        f"calibration (default {DEFAULT_FLOOR:g})")
+    p.add_argument("--sensor-uncertainty", type=nonnegative_float,
+                   default=DEFAULT_SENSOR_UNCERTAINTY, metavar="REL",
+                   help="relative calibration uncertainty of each sensor channel, a gain and "
+                        "phase error shared by all its points (default "
+                        f"{DEFAULT_SENSOR_UNCERTAINTY:g}; 0: exact sensors)")
+    p.add_argument("--point-uncertainty", type=nonnegative_float,
+                   default=DEFAULT_POINT_UNCERTAINTY, metavar="REL",
+                   help="relative uncertainty of each measured point beyond its random error "
+                        "(leakage, interpolation, jitter; default "
+                        f"{DEFAULT_POINT_UNCERTAINTY:g})")
+    p.add_argument("--identified-within", type=nonnegative_float, default=IDENTIFIED_WITHIN,
+                   metavar="REL", help="a fitted parameter counts as identified when its 95 "
+                   "percent interval lies within +-REL of its value (default "
+                   f"{IDENTIFIED_WITHIN:g}); a wider one is reported uncertain")
     p.add_argument("--out", type=output_folder, default=None,
                    help="output folder (created; default: out/calibration)")
     add_backend_arguments(p)
@@ -85,8 +102,9 @@ def run(args) -> int:
         raise ConfigError("--starts", f"must be >= 0 (got {args.starts})", fix="give --starts 4")
     backend = backend_from_args(args.workers, args.scheduler)
     cal = run_calibration(args.data, args.config, args.map, args.fit, args.bounds, args.prior,
-                          args.validate, backend, args.starts, args.seed, args.floor, Progress(),
-                          args.batch_size)
+                          args.validate, backend, args.starts, args.seed, args.sensor_uncertainty, Progress(),
+                          args.batch_size, args.uff_map, args.point_uncertainty,
+                          args.identified_within)
     out = args.out if args.out is not None else Path("out") / "calibration"
     doc = calibration_document(cal)
     make_folder(out)
@@ -95,16 +113,18 @@ def run(args) -> int:
     channels = [c for t in cal.curves[:len(cal.fitted)] for c in t["target"].point_channels()]
     write_calibration_html(cal, doc, out / "index.html", channels)
     summary(doc, out)
-    verdicts = [r["calibrated"].get("verdict") for r in doc["data"]]
-    return 0 if verdicts and all(v == "PASS" for v in verdicts) else 1
+    verdicts = [r["calibrated"]["verdict"] for r in doc["data"]
+                if r["calibrated"]["verdict"] is not None]
+    return 0 if all(v == "PASS" for v in verdicts) else 1
 
 
 def summary(doc: dict, out: Path) -> None:
     for p in doc["parameters"]:
-        if p["identifiable"]:
+        if p["fitted"]:
             lo, hi = p["ci95"]
+            why = "" if p["identifiable"] else f"; {p['reason']}"
             print(f"  {p['path']}: {p['value']:.6g} {p['unit']} (configured {p['initial']:.6g}; "
-                  f"95 % interval [{lo:.6g}, {hi:.6g}])")
+                  f"95 % interval [{lo:.6g}, {hi:.6g}]{why})")
         else:
             print(f"  {p['path']}: not identifiable, kept at {p['initial']:.6g} {p['unit']} "
                   f"({p['reason']})")
@@ -112,7 +132,9 @@ def summary(doc: dict, out: Path) -> None:
     print(f"reduced chi-square {res['before']:.4g} -> {res['after']:.4g}")
     for kind, rows in (("fitted", doc["data"]), ("held out", doc["validation"])):
         for r in rows:
-            print(f"  {kind} {r['data']}: compare {r['configured'].get('verdict')} -> "
-                  f"{r['calibrated'].get('verdict')}; chi2 {r['configured']['chi2']:.4g} -> "
+            before, after = r["configured"]["verdict"], r["calibrated"]["verdict"]
+            verdicts = ("measured FRFs" if before is None
+                        else f"compare {before} -> {after}")
+            print(f"  {kind} {r['data']}: {verdicts}; chi2 {r['configured']['chi2']:.4g} -> "
                   f"{r['calibrated']['chi2']:.4g}")
     print(f"-> {out / CALIBRATED}; report: {out / 'index.html'}")

@@ -103,6 +103,7 @@ class BagSource:
     #: nothing is assumed of the package's own bags (their configuration is recorded)
     assumptions: dict = {}
     tracking = None
+    interpolation = None                # recorded on the run's own grid
     sample_period_s = property(lambda self: self.scenario.sample_period_s)
     machine = property(lambda self: self.scenario.machine)
     has_test_force = property(lambda self: self.scenario.test_force is not None)

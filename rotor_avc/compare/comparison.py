@@ -130,9 +130,9 @@ def _with_foot_accelerations(plant):
     return dataclasses.replace(plant, outputs=plant.outputs + extra)
 
 
-def model_loops(scenario, kinds=("continuous", "sampled")) -> dict:
-    """The scenario's continuous and sampled closed loops (the foot accelerations as outputs)."""
-    machine, T = scenario.machine, scenario.sample_period_s
+def model_loops(machine, T: float, kinds=("continuous", "sampled")) -> dict:
+    """The machine's continuous and sampled (period ``T``) closed loops, the foot accelerations
+    as outputs."""
     plant = _with_foot_accelerations(machine.plant)
     build = {"continuous": lambda: ClosedLoop(plant, machine.controllers),
              "sampled": lambda: SampledLoop.from_blocks(
@@ -299,7 +299,21 @@ def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
             f"averaged over the {est.averages} Welch segments of {nperseg} samples that fit "
             "between them")
         out.append((float(d.speed_rad_s[0]), est))
+    if run.interpolation is not None and out:
+        out = [(speed, _deinterpolated(run, est, outputs)) for speed, est in out]
     return out
+
+
+def _deinterpolated(run: RecordedRun, est: FrfEstimate, outputs) -> FrfEstimate:
+    """H1 and H2 divided by the resampling's gain on them (``run.interpolation``), noted."""
+    gain = run.interpolation(outputs, est.freq_hz)
+    worst = np.abs(20 * np.log10(np.abs(gain)))
+    k, i = np.unravel_index(np.argmax(worst), worst.shape)
+    run.notes.append(f"broadband: H1 and H2 divided by the gain of the resampling (linear "
+                     "interpolation of each output over the test force's, from their stamps "
+                     f"onto the grid): at most {worst[k, i]:.2g} dB ({outputs[i]} at "
+                     f"{est.freq_hz[k]:.4g} Hz)")
+    return dataclasses.replace(est, h1=est.h1 / gain, h2=est.h2 / gain)
 
 
 def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
@@ -338,7 +352,7 @@ def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
 
 def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
     """Continuous and sampled-loop poles (``s``, 1/s) at each speed with the run's ``w_F``."""
-    loops = model_loops(run.scenario)
+    loops = model_loops(run.machine, run.sample_period_s)
     out = []
     for speed in speeds_rad_s:
         w_F = float(run.scenario.damping.w_F(run.machine.plant, np.array(speed)))
@@ -357,7 +371,7 @@ def compare_run(run: RecordedRun) -> Comparison:
     if run.scenario.use_balancer:
         raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
                          "the fixed-unbalance models do not describe; compare a run without it")
-    loops = model_loops(run.scenario)
+    loops = model_loops(run.machine, run.sample_period_s)
     one = compare_one_x(run, loops) if one_x_channels(run) else None
     bbs = compare_broadband(run, loops)
     notes = list(run.notes)                   # after the passes over the run (a streamed bag)

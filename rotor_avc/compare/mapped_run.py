@@ -219,7 +219,23 @@ def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
                       assumptions)
     run.tracking = ShaftTracking(run, shaft, {n: (t, y) for n, (t, y, _) in clean.items()
                                               if n != TEST_FORCE})
+    if TEST_FORCE in clean:
+        run.interpolation = FrfInterpolation({n: t for n, (t, _, _) in clean.items()},
+                                             grid[keep])
     return run
+
+
+class FrfInterpolation:
+    """The resampling's gain on an FRF from the test force to each output: the ratio of their
+    linear interpolations' gains onto the grid (rotor_avc.analysis.resampling)."""
+
+    def __init__(self, stamps: dict, grid):
+        self.stamps, self.grid = stamps, grid
+
+    def __call__(self, outputs, freq_hz) -> np.ndarray:
+        force = R.interpolation_gain(self.stamps[TEST_FORCE], self.grid, freq_hz)
+        return np.column_stack([R.interpolation_gain(self.stamps[n], self.grid, freq_hz) / force
+                                for n in outputs])
 
 
 class ShaftTracking:

@@ -42,6 +42,7 @@ class MappedStream:
     has_test_force = False
     test_source = ""
     namespace = ""
+    interpolation = None
 
     def __init__(self, bag_path, config, map_path):
         self.path = Path(bag_path)

@@ -104,6 +104,10 @@ class RecordedRun:
     #: settings)``, where its signals do not share one sample grid (a mapped recording); None:
     #: the comparison tracks the channels on ``time_s``
     tracking: object = None
+    #: ``(outputs, freq_hz) -> (F, m)`` complex gain of the resampling on an FRF from the test
+    #: force to each output (rotor_avc.analysis.resampling.interpolation_gain, output over
+    #: input), where the channels were resampled onto the grid; None: recorded on it
+    interpolation: object = None
 
     @property
     def sample_period_s(self) -> float:

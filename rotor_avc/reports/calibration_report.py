@@ -72,6 +72,32 @@ def _overlays(curve: dict) -> list:
     return blocks
 
 
+def _band_overlays(curve: dict) -> list:
+    """Per broadband dwell (or measured FRF set) and output: H1 against both models."""
+    blocks = []
+    for k, b in enumerate(curve["target"].band):
+        where = f"{b.speed_rad_s / (2 * np.pi):.4g} Hz shaft speed, force at {b.actuator}"
+        for i, name in enumerate(b.outputs):
+            use = b.used[:, i]
+            for part, fn, title, key in (("mag", np.abs, "H1 magnitude", "y"),
+                                         ("phase", lambda v: np.degrees(np.angle(v)), "H1 phase",
+                                          None)):
+                traces = [{"type": "scatter", "mode": "markers", "name": "measured",
+                           "x": b.freq_hz[use], "y": fn(b.h1[use, i]),
+                           "marker": {"color": "#d62728", "size": 5}}]
+                for label, color in MODELS.items():
+                    H = curve["band"][label][k]
+                    traces.append({"type": "scatter", "mode": "lines", "name": f"{label} model",
+                                   "x": b.freq_hz, "y": fn(H[:, i]), "line": {"color": color}})
+                blocks.append(Figure(f"{curve['data']}-h{k}-{name}-{part}".replace("/", "_"),
+                                     f"{curve['data']}: {name} per force, {title} ({where})",
+                                     traces, x_title="frequency [Hz]", speed_axis=None,
+                                     y_title=title if key else "phase [deg]",
+                                     unit="" if key is None else "SI/N", magnitude_key=key,
+                                     height_px=320))
+    return blocks
+
+
 def _mac_figure(rows: list[dict]) -> Figure:
     traces = []
     for r in rows:
@@ -114,8 +140,8 @@ def write_calibration_html(cal: Calibration, doc: dict, path: Path, point_channe
     blocks = [
         "<h2>Parameters</h2>", _parameters(doc),
         f"<p>Reduced chi-square of the weighted residual: {res['before']:.4g} configured, "
-        f"{res['after']:.4g} calibrated ({res['dof']} degrees of freedom; relative uncertainty "
-        f"floor {res['relative_floor']:g}). Intervals: Student's t on the covariance at the "
+        f"{res['after']:.4g} calibrated ({res['dof']} degrees of freedom; sensor calibration "
+        f"uncertainty {res['sensor_uncertainty']:g}, one complex gain per channel). Intervals: Student's t on the covariance at the "
         "optimum, scaled by the reduced chi-square where it exceeds 1.</p>",
         "<h2>Recordings: before and after</h2>",
         table_html(rec_rows, [("data", "recording"), ("kind", "used"), ("points", "points"),
@@ -142,9 +168,9 @@ def write_calibration_html(cal: Calibration, doc: dict, path: Path, point_channe
         blocks.append(_matrix("correlation", "correlation of the fitted parameters",
                               np.where(np.isfinite(corr), corr, None).tolist(), labels, labels,
                               -1.0, 1.0))
-    blocks.append("<h2>1x over speed: measured, configured and calibrated model</h2>")
+    blocks.append("<h2>Measured against the configured and the calibrated model</h2>")
     for curve in cal.curves:
-        blocks += _overlays(curve)
+        blocks += _overlays(curve) + _band_overlays(curve)
     title = f"Calibration of {cal.config_path.name}"
     write_text(path, page(title, blocks))
     return path
