@@ -225,6 +225,25 @@ def test_the_jacobian_is_the_same_on_worker_processes(rig):
 
 
 @pytest.mark.parametrize("rig", ["A"], indirect=True)
+def test_seeded_starts_on_worker_processes_find_the_same_minimum(rig, tmp_path):
+    _, root, truth = rig
+    _, serial = _calibrate(root, list(truth), tmp_path / "serial")
+    status = main(["calibrate", str(root / "fit"), "--config", str(root / "machine.yaml"),
+                   "--map", str(root / "map.yaml"), "--fit", ",".join(truth), "--out",
+                   str(tmp_path / "starts"), "--starts", "2", "--seed", "7", "--workers", "2",
+                   "--batch-size", "1"])
+    doc = json.loads((tmp_path / "starts" / "calibration.json").read_text())
+    assert status == 0
+    starts = doc["fit"]["starts"]
+    assert [s["start"] for s in starts] == [0, 1, 2] and sum(s["best"] for s in starts) == 1
+    assert all(s["status"] > 0 for s in starts)
+    best = min(s["cost"] for s in starts)
+    assert all(s["cost"] <= best * (1 + 1e-6) for s in starts)   # one minimum, found thrice
+    for a, b in zip(serial["parameters"], doc["parameters"]):
+        assert b["value"] == pytest.approx(a["value"], rel=1e-5)
+
+
+@pytest.mark.parametrize("rig", ["A"], indirect=True)
 def test_a_narrow_prior_holds_its_parameter(rig, tmp_path):
     _, root, truth = rig
     status, doc = _calibrate(root, list(truth), tmp_path / "cal",

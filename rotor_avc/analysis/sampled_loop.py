@@ -83,8 +83,11 @@ class SampledPoles:
     @property
     def s(self) -> np.ndarray:
         """Equivalent continuous poles ``ln(z) / T`` (z = 0 maps to -inf)."""
-        with np.errstate(divide="ignore"):
-            return np.log(self.z.astype(complex)) / self.sample_period_s
+        z = self.z.astype(complex)
+        s = np.full(z.shape, complex(-np.inf, 0.0))
+        nonzero = z != 0
+        s[nonzero] = np.log(z[nonzero]) / self.sample_period_s
+        return s
 
     @property
     def max_abs_z(self) -> float:
