@@ -77,7 +77,7 @@ class WhirlIterationSettings:
 
 @dataclass(frozen=True)
 class ThresholdSettings:
-    """Werner 2017 Sec. 3, Fig. 4: the threshold-of-stability procedure (digest 5)."""
+    """Werner 2017 Sec. 3, Fig. 4: the threshold-of-stability procedure."""
 
     w_F_start: float | str = setting("model", "first damping frequency: `model` (the model's "
                                      "estimate, Werner 2017 eq. 14) or a number", unit="rad/s",

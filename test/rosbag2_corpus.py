@@ -183,3 +183,21 @@ def corpus_map(*, test_force: bool, bearings: bool = True) -> dict:
     if test_force:
         out["test_force"] = {"topic": "/shaker/force", "field": "wrench.force.z"}
     return out
+
+
+def corpus_recording(root: Path) -> Path:
+    """0.4 s of Werner 2021 case 3 at 25 Hz as a two-file directory ``root/bag`` (imperfections
+    of seed 3), beside its machine config ``root/machine.yaml`` and mapping ``root/map.yaml``;
+    returns the directory."""
+    from rotor_avc.config import find_config, load_yaml
+    from rotor_avc.scenario import scenario_from_config
+    data = load_yaml(find_config("foot_mount_case3"))
+    data["simulation"] = {"sample_rate_hz": 5000.0, "duration_s": 0.4,
+                          "speed": {"type": "constant", "speed_hz": 25.0},
+                          "unbalance": {"static": {"magnitude": 1e-2, "phase_deg": 0.0}},
+                          "initial_state": "steady_state"}
+    (root / "machine.yaml").write_text(yaml.safe_dump(data))
+    ts = scenario_from_config(data, "dir").run(progress=False)
+    bag = write_corpus_bag(root / "bag", ts, Imperfections(seed=3))
+    (root / "map.yaml").write_text(yaml.safe_dump(corpus_map(test_force=False)))
+    return bag

@@ -9,7 +9,6 @@ import pytest
 from rotor_avc.analysis.sampled_loop import machine_sampled_loop
 from rotor_avc.config import load_config
 from rotor_avc.errors import ConfigError
-from rotor_avc.harmonic.lti import loop_with_input
 from rotor_avc.harmonic.strategy_study import (StrategyResult, model_resonances,
                                                peak_reductions, revolutions)
 from rotor_avc.scenario import scenario_from_config
@@ -51,7 +50,7 @@ def test_block_is_its_internal_loop_run_sample_by_sample():
         s = tables.node(w)
         if s not in models:
             sp = tables.speeds_rad_s[s]
-            models[s] = loop_with_input(loop, sp, sp, block.actuator_ids, block.sensors)
+            models[s] = loop.with_inputs(sp, sp, block.actuator_ids, block.sensors)
         m, K = models[s], -tables.W[s, 0, :n]
         u_ff = (-tables.steady("Uc", w) @ truth * np.exp(1j * a)).real
         want.append(u_ff - K @ x)

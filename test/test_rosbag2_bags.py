@@ -23,7 +23,7 @@ from rotor_avc.config import find_config, load_yaml
 from rotor_avc.recording import write_run_bag
 from rotor_avc.scenario import scenario_from_config
 
-from rosbag2_corpus import Imperfections, corpus_map, write_corpus_bag
+from rosbag2_corpus import Imperfections, corpus_map, corpus_recording, write_corpus_bag
 
 TOPIC = "/imu_foot_nl/data"
 
@@ -32,16 +32,7 @@ TOPIC = "/imu_foot_nl/data"
 def corpus(tmp_path_factory):
     """0.4 s of case 3 at 25 Hz as a two-file directory, its machine config and mapping."""
     root = tmp_path_factory.mktemp("dir")
-    data = load_yaml(find_config("foot_mount_case3"))
-    data["simulation"] = {"sample_rate_hz": 5000.0, "duration_s": 0.4,
-                          "speed": {"type": "constant", "speed_hz": 25.0},
-                          "unbalance": {"static": {"magnitude": 1e-2, "phase_deg": 0.0}},
-                          "initial_state": "steady_state"}
-    (root / "machine.yaml").write_text(yaml.safe_dump(data))
-    ts = scenario_from_config(data, "dir").run(progress=False)
-    bag = write_corpus_bag(root / "bag", ts, Imperfections(seed=3))
-    (root / "map.yaml").write_text(yaml.safe_dump(corpus_map(test_force=False)))
-    return root, bag
+    return root, corpus_recording(root)
 
 
 def test_a_directory_reads_as_one_bag_over_its_split_files(corpus):

@@ -1,8 +1,9 @@
 """Quantified actuator force and phase of Sci. Rep. 2023: the synchronous feed-forward that cancels the
-bearing-housing motion (eqs. 30-39; digest sections 6, 7 and 9).
+bearing-housing motion (eqs. 30-39).
 
-At spin speed ``Omega`` the synchronous compliance (eqs. 30-31, with ``K'`` in ``kappa'`` (A8);
-taken in the original coordinates, whose housing rows equal those of ``q'``, digest 3.8)::
+At spin speed ``Omega`` the synchronous compliance (eqs. 30-31, with ``K'`` in ``kappa'`` where
+the paper prints ``K``; taken in the original coordinates, whose housing rows equal those of
+``q'``)::
 
     H(Omega) = (K - Omega^2 M + j Omega (C + Omega G1))^-1
 
@@ -10,11 +11,11 @@ maps force phasors to displacement phasors. With the unbalance phasor ``F_e = m_
 and the actuator forces ``F_a`` on the actuator masses (force vectors ``P``), the housing motion
 ``S H (F_e + P F_a)`` (rows ``S``: the actuators' housing rows) is cancelled by
 
-* ``paper`` -- eqs. (38)-(39) with the sign corrected (A9; the printed form doubles the housing
+* ``paper`` -- eqs. (38)-(39) with the sign corrected (the printed form doubles the housing
   motion): per bearing ``i``, ``F_i = -A_i^-1 b_i`` with ``A_i = S_i H P_i`` over its y and x
   actuators and ``b_i = [s_iy H F_e|y-plane, s_ix H F_e|x-plane]``: the paper keeps only the
-  same-direction unbalance terms and drops the other bearing's actuators (eqs. 32-35, A11);
-* ``exact`` -- all four housings together (digest 6.5): ``F_a = -(S H P)^-1 S H F_e``.
+  same-direction unbalance terms and drops the other bearing's actuators (eqs. 32-35);
+* ``exact`` -- all four housings together (not in the paper): ``F_a = -(S H P)^-1 S H F_e``.
 
 The forces depend on ``Omega`` only, not on the sensor choice; the physical actuator force is
 ``Re{F_a e^{j theta}}`` with the shaft angle ``theta`` (phase 0: the unbalance force along x).
@@ -120,8 +121,8 @@ def compliance(plant: LinearPlant, speed_rad_s, freq_rad_s=None, sensor_transfor
 
     ``freq_rad_s`` (default: ``speed_rad_s``, the synchronous response) is the excitation
     frequency, for an FRF at fixed spin. Rows: the original coordinates, or ``q'`` when the
-    ``Pi`` of eq. (11) is given (``H' = kappa'^-1 = Pi^-1 H`` with ``K' = K Pi``, A8); columns:
-    the original force numbering (A5). Accelerance is ``-w^2 H``."""
+    ``Pi`` of eq. (11) is given (``H' = kappa'^-1 = Pi^-1 H`` with ``K' = K Pi``); columns: the
+    original force numbering, as eqs. (32)-(35) index them. Accelerance is ``-w^2 H``."""
     speeds = _check_speeds(speed_rad_s)
     freqs = speeds if freq_rad_s is None else np.broadcast_to(np.asarray(freq_rad_s, float), speeds.shape)
     Z = ClosedLoop(plant).dynamic_stiffness(1j * freqs, speeds, plant.forced_damping_frequency(freqs))

@@ -2,8 +2,8 @@
 ``controller``): the sampled closed loop stable, every ``G_c`` proper and stable, the sample
 rate above the plant's modes.
 
-* **Proper** -- an ideal (improper) PD/PID cannot run as a causal filter (Werner 2021 section 10:
-  the derivative needs its filter pole): always refused.
+* **Proper** -- an ideal (improper) PD/PID cannot run as a causal filter (the derivative
+  needs its filter pole): always refused.
 * **Stable** -- the discrete closed-loop poles of :class:`~rotor_avc.analysis.sampled_loop.SampledLoop`
   (DESIGN.md section 3: plant, sampling, hold, the discretised controllers, their delays) at each
   speed checked, ``max |z| < 1``; a controller ``G_c(s)`` with a pole in the right half-plane

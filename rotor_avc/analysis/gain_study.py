@@ -13,9 +13,9 @@ controller and the synchronous response to one excitation is computed over speed
   smallest speed shift; a resonance without a peak (flattened by damping, or moved out of the
   speed range) is NaN at that gain. With coarse gain steps a flattened peak may be followed to a
   neighbouring one: finer steps make the following reliable;
-* **reductions** of each resonance (digest 7 item 10): (A) the controlled maximum within
-  ``+-window`` of the open-loop peak speed against the open-loop peak, and (B) both curves at the
-  open-loop peak speed, in percent;
+* **reductions** of each resonance (the paper does not define how it measures them): (A) the
+  controlled maximum within ``+-window`` of the open-loop peak speed against the open-loop peak,
+  and (B) both curves at the open-loop peak speed, in percent;
 * **actuator forces**: the largest force amplitude over speed per actuator.
 
 Amplitudes are per unit excitation amplitude in SI (e.g. (m/s)/m for the bent rotor). The

@@ -13,7 +13,7 @@ import scipy.optimize
 
 
 def signal_rms(x, axis: int = -1) -> np.ndarray:
-    """``sqrt(mean(x^2))`` of sampled signals (digest 7)."""
+    """``sqrt(mean(x^2))`` of sampled signals (the RMS of Sci. Rep. 2023, Table 2)."""
     x = np.asarray(x, dtype=float)
     return np.sqrt(np.mean(x * x, axis=axis))
 

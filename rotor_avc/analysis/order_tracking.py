@@ -3,7 +3,7 @@
 A channel of a linear machine under unbalance responds in steady state as
 ``y(t) = Re{Y e^{j theta(t)}}`` (plant convention: force ``Re{F u e^{j theta}}``,
 ``rotor_avc.models.plant``), with ``theta`` the integrated shaft angle. Over the samples of an
-integer number ``n`` of revolutions (Werner 2021 section 10, "Phasors")::
+integer number ``n`` of revolutions::
 
     Y_hat = (2/N) sum_k y[k] e^{-j theta[k]},     Y_hat / u  ->  the response per unit unbalance
 

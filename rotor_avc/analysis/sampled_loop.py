@@ -17,12 +17,15 @@ ZOH-discretised (:func:`rotor_avc.models.discretize.discretize_plant`), holds ``
 * unbalance response at the sample instants: ``X_hat = (e^{j Omega T} I - A_cl)^{-1} B_e``, output
   and force phasors in the :class:`~rotor_avc.closed_loop.frf.SpeedFrf` form of
   :func:`~rotor_avc.closed_loop.frf.unbalance_frf` (same names, so the two overlay);
-* the stable range of a common gain factor on all controllers (bisection on ``max |z| = 1``).
+* the stable range of a common gain factor on all controllers (bisection on ``max |z| = 1``);
+* the loop with forces added at any actuators and any measured quantities as outputs
+  (:meth:`SampledLoop.with_inputs`: the state-space form the harmonic controller's analyses and
+  its internal model build on).
 
 An integrating controller (pole at z = 1) on velocity or acceleration leaves an exact closed-loop
 eigenvalue at z = 1: the integrator can hold any constant force, against which the plant rests
-in a static deflection that the derivative signal does not see (the drift mode of digest 000
-section 10; the continuous :class:`ClosedLoop` cancels it). These "drift" eigenvalues are
+in a static deflection that the derivative signal does not see (a drift mode; the continuous
+:class:`ClosedLoop` cancels it). These "drift" eigenvalues are
 reported apart and do not count for stability. Force and rate limits are not modelled (the
 model holds while no limit is active). The damping frequency ``w_F`` is an explicit argument,
 the same one the continuous model is evaluated with.
@@ -42,6 +45,7 @@ from ..models.discretize import DiscretePlant, discretize_plant
 from ..models.plant import LinearPlant
 from ..closed_loop.frf import SpeedFrf
 from .poles import pole_table
+from .transfer import quantity
 
 DRIFT_TOL = 1e-8
 
@@ -65,9 +69,26 @@ def _df2t_realisation(tf: DiscreteTf):
 class _Assembly:
     A: np.ndarray            # (Nt, Nt) closed-loop transition
     Be: np.ndarray           # (Nt, ne) complex excitation input
-    force_x: np.ndarray      # (m, Nt) u_k = force_x X_k + force_e e
+    force_x: np.ndarray      # (m, Nt) u_k = force_x X_k + force_e e (the held actuators)
     force_e: np.ndarray      # (m, ne)
     dp: DiscretePlant
+    held_forces: np.ndarray  # (n, m) force vectors of the held actuators (states N .. N + m)
+    excitations: np.ndarray  # (n, ne) excitation phasors at the speed
+
+
+@dataclass(frozen=True)
+class LoopWithInput:
+    """``X+ = A X + B f``, ``e = C X``: the sampled loop with forces ``f`` added at some
+    actuators and the measured quantities ``e``; the plant's synchronous excitations
+    (amplitudes ``a``, complex) enter as ``X+ = ... + Re{Be a e^{j theta_k}}``,
+    ``e = ... + Re{De a e^{j theta_k}}``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    n_drift: int
+    Be: np.ndarray
+    De: np.ndarray
 
 
 @dataclass
@@ -187,14 +208,15 @@ class SampledLoop:
         return mX, me
 
     def assemble(self, speed_rad_s: float, w_F: float, gain: float = 1.0,
-                 dp: DiscretePlant | None = None) -> _Assembly:
-        """Closed-loop ``A_cl``, ``B_e`` and the force rows (module docstring)."""
+                 dp: DiscretePlant | None = None, held: list[str] | None = None) -> _Assembly:
+        """Closed-loop ``A_cl``, ``B_e`` and the force rows (module docstring); ``held``: the
+        actuators whose held forces are states (default: the controlled ones)."""
         p = self.plant
         T = self.sample_period_s
         if dp is None:
             dp = discretize_plant(p, speed_rad_s, w_F, T)
         n, N = p.n, 2 * p.n
-        ids = list(self.controllers)
+        ids = list(self.controllers) if held is None else list(held)
         m = len(ids)
         acts = [p.actuator(i) for i in ids]
         Pc = np.array([a.force_vector for a in acts]).reshape(m, n).T    # (n, m)
@@ -202,17 +224,19 @@ class SampledLoop:
         Gu = dp.Gamma_u[:, cols]
         F = np.array([e.phasor(speed_rad_s) for e in p.excitations]).reshape(-1, n).T  # (n, ne)
         ne = F.shape[1]
-        reals = [_df2t_realisation(self.controllers[i].scaled(gain)) for i in ids]
-        delays = [self.delay_samples.get(i, 0) for i in ids]
+        reals = [_df2t_realisation(tf.scaled(gain)) for tf in self.controllers.values()]
+        delays = [self.delay_samples.get(c, 0) for c in self.controllers]
         Nt = N + m + sum(r[0].shape[0] for r in reals) + sum(delays)
         A = np.zeros((Nt, Nt))
         Be = np.zeros((Nt, ne), complex)
         uX = np.zeros((m, Nt))
         ue = np.zeros((m, ne), complex)
         k = N + m
-        for i, (act, tf, (Ac, Bc, Cc, Dc), d) in enumerate(zip(acts, self.controllers.values(),
-                                                             reals, delays)):
-            mX, me = self._measurement(act.sensor_row, FEEDBACK_ORDER[tf.feedback], dp, Pc, F, Nt)
+        for c, tf, (Ac, Bc, Cc, Dc), d in zip(self.controllers, self.controllers.values(),
+                                              reals, delays):
+            i = ids.index(c)
+            mX, me = self._measurement(p.actuator(c).sensor_row, FEEDBACK_ORDER[tf.feedback], dp,
+                                       Pc, F, Nt)
             nc = Ac.shape[0]
             xi = slice(k, k + nc)
             if d:
@@ -238,7 +262,33 @@ class SampledLoop:
         Be[:N] = dp.Gamma_e + Gu @ ue
         A[N:N + m] = uX
         Be[N:N + m] = ue
-        return _Assembly(A, Be, uX, ue, dp)
+        return _Assembly(A, Be, uX, ue, dp, Pc, F)
+
+    def with_inputs(self, speed_rad_s: float, w_F: float, input_ids, output_names
+                    ) -> LoopWithInput:
+        """The loop with forces added at ``input_ids`` and the measured quantities
+        ``output_names`` (plant outputs, ``foot_<id>_{d,v,a}<axis>``) as outputs; every
+        actuator's held force is a state."""
+        p = self.plant
+        asm = self.assemble(speed_rad_s, w_F, held=[a.id for a in p.actuators])
+        ids = [a.id for a in p.actuators]
+        N, na, Nt = 2 * p.n, len(ids), asm.A.shape[0]
+        S = np.zeros((na, len(input_ids)))
+        for j, a in enumerate(input_ids):
+            S[ids.index(p.actuator(a).id), j] = 1.0
+        B = np.zeros((Nt, len(input_ids)))
+        B[:N] = asm.dp.Gamma_u @ S
+        B[N:N + na] = S
+        rows = []
+        for name in output_names:
+            kind, row, order, _ = quantity(p, name)
+            if kind != "row":
+                raise ModelError(f"{name!r} is a force, not a measured quantity")
+            rows.append(self._measurement(row, order, asm.dp, asm.held_forces, asm.excitations,
+                                          Nt))
+        C = np.array([r for r, _ in rows]).reshape(-1, Nt)
+        De = np.array([t for _, t in rows]).reshape(-1, asm.excitations.shape[1])
+        return LoopWithInput(asm.A, B, C, self._n_drift(), asm.Be, De)
 
     def _n_drift(self) -> int:
         """Held-force modes: one per controller with a pole at z = 1 on velocity or acceleration

@@ -53,7 +53,7 @@ def with_variants(cfg: Section, names) -> Section:
 
 # -- the threshold of one configuration ---------------------------------------------------------
 def threshold_settings(cfg: Section) -> ThresholdSettings:
-    """``analysis.stability`` of a config, validated (defaults: digest 5)."""
+    """``analysis.stability`` of a config, validated."""
     return analysis_settings(cfg).stability
 
 

@@ -4,7 +4,7 @@ Rotating (internal) damping adds circulatory stiffness ``Omega / w_F N_eta``; ab
 ``Omega_stab`` one eigenvalue of the state matrix (eqs. 11-12) crosses into the right half plane
 and the machine whirls at ``omega_stab`` (eq. 13). Loss-factor damping ``d = c tan(delta) / w_F``
 (eqs. 2-4) needs the whirl frequency ``w_F = omega_stab`` (eq. 1), which is known only at the end,
-so the threshold is a fixed point (digest 6):
+so the threshold is a fixed point, found by the paper's loop (Fig. 4):
 
 1. start from an estimate ``w_F`` (Werner 2017: eq. 14);
 2. with every damping coefficient frozen at ``w_F``, ``g(Omega) = max_k Re lambda_k`` is scanned on
@@ -175,8 +175,8 @@ def eigen_source(loop, w_F: float, speed_scale_rad_s: float = 1000.0):
 
 def mode_number(eigenvalues: np.ndarray, index: int) -> int:
     """1-based mode number of ``eigenvalues[index]``: oscillating modes counted by ascending
-    damped natural frequency ``|Im|``, one per conjugate pair (digest 2); 0 for a real
-    (non-oscillating) eigenvalue."""
+    damped natural frequency ``|Im|``, one per conjugate pair, as the paper numbers its critical
+    "mode 3"; 0 for a real (non-oscillating) eigenvalue."""
     scale = max(np.abs(eigenvalues).max(), 1.0)
     freq = np.abs(eigenvalues[index].imag)
     if freq <= 1e-9 * scale:
@@ -257,7 +257,7 @@ def _bubble_peak(source, speeds: np.ndarray, mode: np.ndarray) -> float | None:
 def stability_threshold(loop, w_F_start: float, speed_min_rad_s: float,
                         speed_max_rad_s: float, n_grid: int = 200, rel_tol: float = 1e-6,
                         max_iter: int = 50) -> ThresholdResult:
-    """The paper's threshold procedure (Fig. 4, digest 6); see the module docstring.
+    """The paper's threshold procedure (Fig. 4); see the module docstring.
 
     ``loop`` is a continuous ``ClosedLoop`` or a sampled loop (``SampledLoop``: threshold where a
     pole leaves the unit circle); ``w_F_start`` is the first damping frequency (rad/s; Werner 2017:

@@ -1,5 +1,5 @@
 """Poles with frequency-dependent damping: the per-mode whirl-frequency iteration (Werner 2019
-Sec. 3.3, eqs. 62-64; digest 3.5).
+Sec. 3.3, eqs. 62-64).
 
 Loss-factor damping ``d = c tan(delta) / w_F`` (eq. 1), the circulatory term ``d_i Omega`` and any
 frequency-dependent coefficients of the plant (Werner 2019: the electromagnetic ``c_md(w_F)``,
@@ -23,8 +23,9 @@ result is the mode's fixed point ``|Im lambda_k(w_F)| = w_F``, which is found he
 3. stable <=> every converged ``Re lambda_k < 0``.
 
 ``floor`` is the plant's ``damping_floor_rad_s``: near-real eigenvalues are damped at it, because
-loss-factor damping is undefined at ``w_F = 0`` (digest 3.5, our choice). Works for any
-:class:`ClosedLoop` (controller states included in ``A``).
+loss-factor damping is undefined at ``w_F = 0`` (our choice; the paper leaves the iteration's
+details to its ref. [20]). Works for any :class:`ClosedLoop` (controller states included in
+``A``).
 """
 from __future__ import annotations
 

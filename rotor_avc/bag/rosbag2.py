@@ -18,6 +18,7 @@ from typing import Any, Iterator
 import numpy as np
 import yaml
 
+from .recording_reader import RecordingReader
 from .errors import BagError
 from .metadata import CONFIG_RECORD, load_yaml
 from .reader import BagMessage, BagReader, TopicInfo, TopicSeries
@@ -26,8 +27,9 @@ METADATA_FILE = "metadata.yaml"
 
 
 def open_bag(path, *, require_config: bool = False, require_messages: bool = False,
-             integrity: bool = False):
-    """A reader for a ``.mcap`` file or a rosbag2 directory (see the module docstring);
+             integrity: bool = False) -> RecordingReader:
+    """A reader for a ``.mcap`` file or a rosbag2 directory (see the module docstring;
+    :class:`rotor_avc.bag.recording_reader.RecordingReader`);
     ``integrity``: every file first passes :func:`rotor_avc.bag.integrity.verify`."""
     path = Path(path)
     if path.is_dir():

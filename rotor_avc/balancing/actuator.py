@@ -5,7 +5,7 @@ starts a straight move from the current position; its duration is the longer of 
 move time and ``distance / max_rate``. The position is a complex number in the balancer's own
 coordinates (``w_x + i w_z`` [m] for the Zhou & Shi 2001 rotor, mass-radius [kg m] for Werner 2021); a
 target beyond ``max_radius`` is scaled back onto it (saturation is reported). The move's own
-inertial forces (``w'``, ``w''``) are neglected, as in the paper (digest 9 item 11).
+inertial forces (``w'``, ``w''``) are neglected, as in the paper ("slow movement").
 """
 from __future__ import annotations
 

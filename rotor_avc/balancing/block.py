@@ -2,7 +2,7 @@
 
 One block with explicit state (``reset()``, ``step(sample) -> BalancerOutput``) that both the
 in-process loops and the balancer node run, once per sample (DESIGN.md section 3). The supervisor
-is the paper's four-step procedure (Zhou & Shi 2001 section 3, Figure 4(g); digest 7):
+is the paper's four-step procedure (Zhou & Shi 2001 section 3, Figure 4(g)):
 
 1. ``estimate``: hold the balancer at its initial position and run the estimator until
    ``estimate_until_s``;

@@ -1,7 +1,7 @@
 """Influence coefficients of a machine model: 1x responses per unit unbalance over speed.
 
-For the balancer on a LinearPlant (Werner 2021 digest 10, "Balancer node"): the synchronous response
-of a channel ``c`` at speed ``Omega`` and angular acceleration ``Omega'`` is, quasi-steadily,
+For the balancer on a LinearPlant: the synchronous response of a channel ``c`` at speed
+``Omega`` and angular acceleration ``Omega'`` is, quasi-steadily,
 ``y_c = Re{sum_k A_ck(Omega, Omega') u_k e^{j theta}}`` with the closed-loop responses of
 :func:`rotor_avc.closed_loop.frf.unbalance_frf` (``Omega'`` enters through the tangential ``-j Omega'``
 part of the excitation phasor, so ``A = A0 + Omega' A1`` exactly). Both are tabulated once on a

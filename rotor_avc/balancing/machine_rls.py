@@ -1,7 +1,8 @@
 """RLS estimate of a machine's static and moment unbalance from its measured signals.
 
-The generalisation of the Zhou & Shi 2001 regression to any LinearPlant (Werner 2021 digest 10): with the
-influence coefficients ``A(Omega, Omega')`` of :mod:`.influence` each measured channel is, to the
+The generalisation of the Zhou & Shi 2001 regression to any LinearPlant, whose 1x responses are
+linear in the unbalances (Werner 2021 eq. 42): with the influence coefficients ``A(Omega, Omega')``
+of :mod:`.influence` each measured channel is, to the
 quasi-steady 1x approximation, ``y_c = Re{(A_c,e (u_e + c_e) + A_c,a (u_a + c_a)) e^{j theta}}``,
 where ``c`` are the balancer's known corrections. With the unknowns
 ``p = [Re u_e, Im u_e, Re u_a, Im u_a]`` each channel gives one regression row::

@@ -1,4 +1,4 @@
-"""The Zhou & Shi 2001 regression ``y_j = x_j^T phi_j + e_j`` (paper eq. 2, digest 3.2 and 6).
+"""The Zhou & Shi 2001 regression ``y_j = x_j^T phi_j + e_j`` (paper eq. 2).
 
 Known constants ``a1 = k/m``, ``a2 = c/m``, ``b0 = 1/m``, ``g0 = m/I_t``, ``g1 = m L^2/(2 I_t)``,
 ``g2 = I_p/I_t``; unknowns ``phi_1 = [b1, b2] = m_u [u_x, u_z] / m`` and ``phi_2 = [b3, b4] =
@@ -9,9 +9,10 @@ phi'^2 cos phi``::
     y2 = theta'' - [b0 m_b w_y g0 (w_x f1 + w_z f2) - g1 a2 theta' - g1 a1 theta
                     (+ g2 (phi'' psi + phi' psi') with gyro compensation)],  x2 = g0 [f1, f2]
 
-(the extraction prints ``-2 a2 theta'`` in ``y1``; it must be ``R_X'``, digest 9 item 5).
+(the extraction prints ``-2 a2 theta'`` in ``y1``; it must be ``R_X'``, a typo in the paper's
+eq. (2)).
 The paper uses these two rows only. With ``axes="both"`` the ``R_Z`` and ``psi`` rows, which carry
-the same parameters with independent measurement noise (digest 3.2), are stacked in::
+the same parameters with independent measurement noise, are stacked in::
 
     y3 = R_Z'' - [b0 m_b (w_x f1 + w_z f2) - 2 a2 R_Z' - 2 a1 R_Z],         x3 = [f1, f2]
     y4 = psi'' - [b0 m_b w_y g0 (w_z f1 - w_x f2) - g1 a2 psi' - g1 a1 psi
@@ -20,8 +21,8 @@ the same parameters with independent measurement noise (digest 3.2), are stacked
 How the acceleration and the evaluation instant are chosen (``regression``):
 
 * ``forward`` -- paper eq. (2): ``(v_k - v_{k-1}) / T`` with everything else at ``t_{k-1}``. Its
-  O(T) phase error biases the estimate near resonance (digest: 12 % for ``b1, b2`` at 2.2 s and
-  29 % for ``b3, b4`` at 3.3 s with ``T = 1e-4 s``);
+  O(T) phase error biases the estimate near resonance (simulated on the paper's example: 12 % for
+  ``b1, b2`` at 2.2 s and 29 % for ``b3, b4`` at 3.3 s with ``T = 1e-4 s``);
 * ``midpoint`` -- the same difference quotient with ``f`` at ``t_{k-1} + T/2`` and the states and
   balancer position averaged over the two samples (O(T^2); < 0.5 % from 2 s on);
 * ``measured`` -- measured accelerations and everything at ``t_k``.

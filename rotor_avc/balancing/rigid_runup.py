@@ -1,7 +1,7 @@
-"""In-process run-up of the Zhou & Shi 2001 rotor with its one-plane balancer (digest 10, "plant").
+"""In-process run-up of the Zhou & Shi 2001 rotor with its one-plane balancer.
 
-The plant is paper eq. (1) in complex form (digest 3.1), ``R = R_X + i R_Z``, ``Theta = theta +
-i psi``, ``E(t) = (phi'^2 + i phi'') e^{-i phi}``, balancer at ``W = w_x + i w_z``::
+The plant is paper eq. (1) in complex form, ``R = R_X + i R_Z``, ``Theta = theta + i psi``,
+``E(t) = (phi'^2 + i phi'') e^{-i phi}``, balancer at ``W = w_x + i w_z``::
 
     R''     + (2c/m) R'          + (2k/m) R          = [m_u (u_x + i u_z) + m_b W] / m  E
     Theta'' + (c L^2/2I_t) Theta' + (k L^2/2I_t) Theta (+ i (I_p/I_t)(phi'' Theta + phi' Theta'))

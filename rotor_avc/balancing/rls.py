@@ -1,6 +1,6 @@
 """Recursive least squares of the imbalance (Zhou & Shi 2001 eq. 3, "ordinary RLS", Ljung & Soderstrom).
 
-:class:`RlsFilter` is the generic filter with the safeguards a practitioner needs (digest 6):
+:class:`RlsFilter` is the generic filter with the safeguards a practitioner needs:
 
 * the initial covariance is scaled to the problem: ``P0 = (prior_std / noise_std)^2 I`` is the
   prior of the parameters in units of the equation-error variance, so ``x^T P0 x`` stays modest

@@ -5,12 +5,12 @@ omega0 t`` (``omega0`` generalises the paper's start from rest)::
 
     x'' + 2 zeta w_n x' + w_n^2 x = (omega^2 - i alpha) e^{i phi},   omega = phi'
 
-The paper gives (A5)-(A7) only in outline (constants C1-C10 unstated). The explicit equivalent of
-digest 3.4: with the roots ``l in {a0, b0} = -zeta w_n +- i w_d`` and ``(omega^2 - i alpha) e^{i phi}
-= -i d/dt(omega e^{i phi})`` (two integrations by parts)::
+The paper gives (A5)-(A7) only in outline (constants C1-C10 unstated). An explicit equivalent,
+derived here with the roots ``l in {a0, b0} = -zeta w_n +- i w_d`` and ``(omega^2 - i alpha)
+e^{i phi} = -i d/dt(omega e^{i phi})`` (two integrations by parts)::
 
     x = i omega0 h(t) - e^{i phi} + h'(t) - [a0^2 E_a0(t) - b0^2 E_b0(t)] / (a0 - b0)
-    h(t) = (e^{a0 t} - e^{b0 t}) / (a0 - b0)            (impulse response; omega0 = 0: digest 3.4)
+    h(t) = (e^{a0 t} - e^{b0 t}) / (a0 - b0)            (impulse response)
     E_l(t) = int_0^t e^{i phi(tau) + l (t - tau)} dtau
            = -(sqrt(pi) / 2 kappa) [e^{i phi} e^{s^2} erfc(s) - e^{l t} e^{s0^2} erfc(s0)]
     kappa = e^{-i pi/4} sqrt(alpha / 2),   s_l(t) = kappa (t + (omega0 + i l) / alpha)

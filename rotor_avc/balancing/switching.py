@@ -8,7 +8,7 @@ imbalance (geometric argument, eqs. 11-12), and eq. (13) is piecewise linear in 
 is bang-bang: cancel mode 1 while ``M_1 > W M_2``, mode 2 while ``M_1 < W M_2`` (``M_2``
 unscaled).
 
-Switching weight (digest 9 item 2): the derivation gives ``W = |d| l_s`` (``derived``: 2.68411 s
+Switching weight: eq. (13) and the sentence after it give ``W = |d| l_s`` (``derived``: 2.68411 s
 for the paper's rotor), but the paper's published switching time 2.9506 s is reproduced only by
 ``W = l_s`` (``paper``, the default). Both are offered; the discrepancy is the paper's.
 
@@ -73,7 +73,7 @@ class SwitchingSchedule:
 
 def switching_schedule(rotor: RigidRotor, alpha: float, t_end: float, weight: float,
                        omega0: float = 0.0, grid_step_s: float = 1e-3) -> SwitchingSchedule:
-    """Roots of ``g(t) = M_1(t) - W M_2(t)`` on ``[0, t_end]`` (digest 7).
+    """Roots of ``g(t) = M_1(t) - W M_2(t)`` on ``[0, t_end]``: the switching instants of eq. (13).
 
     ``M_k`` jumps at the sudden-vibration onsets ``t_K``: ``g`` is searched on each continuous
     piece with brentq (tolerance 1e-9 s); a sign change across a jump is reported at ``t_K``."""

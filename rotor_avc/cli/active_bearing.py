@@ -1,8 +1,9 @@
 """``rotor-avc active-bearing``: Sci. Rep. 2023's quantified force and phase, RMS and insertion loss.
 
-Prints the digest-section-11 table (force, phase, stroke, RMS before/after, IL per case speed),
-the speed where IL first drops below 0 dB and the piezo stroke-limit report; writes
-``cases.csv``, ``il_over_speed.csv``, ``summary.json`` and IL-over-speed plots (Fig. 7 analogue).
+Prints force, phase, stroke, RMS before/after and IL for each case speed (analogues of the
+paper's Tables 2 and 3), the speed where IL first drops below 0 dB and the piezo stroke-limit
+report; writes ``cases.csv``, ``il_over_speed.csv``, ``summary.json`` and IL-over-speed plots
+(Fig. 7 analogue).
 """
 from __future__ import annotations
 

@@ -85,7 +85,8 @@ from ..analysis.frf_estimate import (MIN_AVERAGES, MIN_SEGMENT, FrfEstimate, con
                                      estimate_frf, estimate_frf_gapped, gapped_segment_length)
 from ..analysis.poles import closed_loop_poles
 from .bag_source import BagSource
-from .recorded_run import MAX_DWELL_SAMPLES, RecordedRun, read_run
+from .recorded_run import MAX_DWELL_SAMPLES, read_run
+from .run_source import RunSource
 from ..analysis.sampled_loop import SampledLoop
 from ..analysis.transfer import sampled_transfer_frf, transfer_frf
 from .checks import (DEAD_DB, HARMONIC, MIN_BROADBAND_SAMPLES, MIN_COHERENCE, Broadband, Check, OneX,
@@ -98,7 +99,7 @@ DENSE_POINTS = {"continuous": 1500, "sampled": 400}
 
 @dataclass
 class Comparison:
-    run: RecordedRun
+    run: RunSource
     one_x: OneX | None
     broadband: list[Broadband]
     poles: list[dict]
@@ -154,7 +155,7 @@ def unbalance_models(scenario, loops, speeds, u_ref, channels) -> dict[str, dict
 
 
 # -- 1x -------------------------------------------------------------------------------------------
-def one_x_channels(run: RecordedRun) -> list[str]:
+def one_x_channels(run: RunSource) -> list[str]:
     """The responses the models describe, then the harmonic controller's forces (inputs)."""
     plant = run.machine.plant
     names = [o.name for o in plant.outputs] + [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
@@ -181,7 +182,7 @@ def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
     return out
 
 
-def measured_one_x(run: RecordedRun, u_ref: complex = 1.0):
+def measured_one_x(run: RunSource, u_ref: complex = 1.0):
     """Order tracking of :func:`one_x_channels`: ``(OrderTrack, method, settings)``."""
     names = one_x_channels(run)
     if run.tracking is not None:
@@ -215,7 +216,7 @@ def _dense_speeds(run, speeds, model) -> np.ndarray:
     return np.linspace(max(lo - pad, 1e-3 * hi), top, DENSE_POINTS[model])
 
 
-def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
+def compare_one_x(run: RunSource, loops: dict) -> OneX | None:
     amps = {k: v for k, v in run.scenario.amplitudes.items() if v != 0}
     if not amps:
         return None
@@ -258,14 +259,14 @@ def compare_one_x(run: RecordedRun, loops: dict) -> OneX | None:
     return one
 
 
-def broadband_outputs(run: RecordedRun) -> list[str]:
+def broadband_outputs(run: RunSource) -> list[str]:
     plant = run.machine.plant
     names = [f"foot_{a.id}_a{a.axis}" for a in plant.actuators]
     names += [o.name for o in plant.outputs if o.name.startswith("bearing_")]
     return [n for n in names if n in run.channel_names]
 
 
-def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
+def measured_broadband(run: RunSource) -> list[tuple[float, FrfEstimate]]:
     """``(speed_rad_s, H1/H2 estimate)`` per constant-speed dwell long enough, from the test force
     to :func:`broadband_outputs`. A dwell with gaps (a recording's dropped samples) is averaged
     over the Welch segments between its gaps (:func:`estimate_frf_gapped`); a dwell whose gaps
@@ -304,7 +305,7 @@ def measured_broadband(run: RecordedRun) -> list[tuple[float, FrfEstimate]]:
     return out
 
 
-def _deinterpolated(run: RecordedRun, est: FrfEstimate, outputs) -> FrfEstimate:
+def _deinterpolated(run: RunSource, est: FrfEstimate, outputs) -> FrfEstimate:
     """H1 and H2 divided by the resampling's gain on them (``run.interpolation``), noted."""
     gain = run.interpolation(outputs, est.freq_hz)
     worst = np.abs(20 * np.log10(np.abs(gain)))
@@ -316,7 +317,7 @@ def _deinterpolated(run: RecordedRun, est: FrfEstimate, outputs) -> FrfEstimate:
     return dataclasses.replace(est, h1=est.h1 / gain, h2=est.h2 / gain)
 
 
-def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
+def compare_broadband(run: RunSource, loops: dict) -> list[Broadband]:
     test = run.scenario.test_force
     results = []
     for speed, est in measured_broadband(run):
@@ -350,7 +351,7 @@ def compare_broadband(run: RecordedRun, loops: dict) -> list[Broadband]:
     return results
 
 
-def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
+def run_poles(run: RunSource, speeds_rad_s) -> list[dict]:
     """Continuous and sampled-loop poles (``s``, 1/s) at each speed with the run's ``w_F``."""
     loops = model_loops(run.machine, run.sample_period_s)
     out = []
@@ -364,10 +365,9 @@ def run_poles(run: RecordedRun, speeds_rad_s) -> list[dict]:
 
 
 # -- all of it ------------------------------------------------------------------------------------
-def compare_run(run: RecordedRun) -> Comparison:
-    """The comparison of a recorded run (see the module docstring): ``run`` a
-    :class:`RecordedRun` or any source of the same metadata and dwells
-    (:class:`~rotor_avc.compare.bag_source.BagSource`)."""
+def compare_run(run: RunSource) -> Comparison:
+    """The comparison of a recorded run (see the module docstring): ``run`` any
+    :class:`~rotor_avc.compare.run_source.RunSource`."""
     if run.scenario.use_balancer:
         raise ModelError(f"{run.path}: the run had an active balancer, whose changing correction "
                          "the fixed-unbalance models do not describe; compare a run without it")

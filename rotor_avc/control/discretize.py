@@ -1,4 +1,4 @@
-"""Discretisation of a controller G_c(s) at a sample period T (Werner 2021 section 10, DESIGN.md 3).
+"""Discretisation of a controller G_c(s) (Werner 2021 eq. 6) at a sample period T (DESIGN.md 3).
 
 ``discretize_controller(ctrl, T, method, prewarp_hz)`` returns the difference equation
 ``a[0] y_k + a[1] y_{k-1} + ... = b[0] x_k + b[1] x_{k-1} + ...`` (``a[0] = 1``, ``b`` and ``a``
@@ -13,7 +13,7 @@ design is scipy's :func:`scipy.signal.cont2discrete`:
 * ``foh`` -- the first-order-hold (ramp-invariant) equivalent.
 
 For Werner 2021's ``G_c = b0/s`` on acceleration, Tustin gives
-``F_k = F_{k-1} - b0 T/2 (a_k + a_{k-1})`` (digest 000 section 10), here ``b = b0 T/2 [1, 1]``,
+``F_k = F_{k-1} - b0 T/2 (a_k + a_{k-1})``, here ``b = b0 T/2 [1, 1]``,
 ``a = [1, -1]`` (the minus sign of negative feedback is applied by the block, not the filter).
 """
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Synchronous (1x) force generator locked to the rotor angle: Sci. Rep. 2023's quantified force and
-phase as a block (digest 10), for the in-process loop and a controller node.
+phase as a block, for the in-process loop and a controller node.
 
 The feed-forward of :mod:`rotor_avc.analysis.active_bearing_ff` gives, per speed, the complex
 actuator forces per unit unbalance ``T_i(Omega)`` [N per kg m]; the wanted force is

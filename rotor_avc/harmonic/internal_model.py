@@ -4,7 +4,7 @@ excitation estimate.
 Quasi-steady phasors ``U = -pinv(G) H C`` (:mod:`.block`) cancel the 1x response only as long as
 the speed changes slowly against the settling of the lightly damped modes and of the zeros of
 ``G`` (near a rank loss of ``G`` the phasors turn fast with speed, and the loop lags them). The
-dynamic feed-forward instead runs the sampled-loop model (:func:`.lti.loop_with_input`: plant,
+dynamic feed-forward instead runs the sampled-loop model (:meth:`rotor_avc.analysis.sampled_loop.SampledLoop.with_inputs`: plant,
 feedback controllers, the block's actuators and sensors) on the estimated excitations ``C``::
 
     x_{k+1} = A x_k + B u_k + Re{Be C e^{j theta_k}},      y_k = Cy x_k + Re{De C e^{j theta_k}}
@@ -38,7 +38,6 @@ import scipy.linalg
 
 from ..errors import ModelError
 from .influence import interpolate
-from .lti import loop_with_input
 
 #: the LQ force weight relative to the largest one-step sensor response per unit force
 DEFAULT_EFFORT = 1e-2
@@ -110,7 +109,7 @@ def internal_tables(loop, actuators, sensors, speeds_rad_s, refresh: int, w_F=No
     out = {k: [] for k in ("Ac", "Ar", "W", "Uc", "Xc", "Fc", "Yc")}
     for speed in speeds:
         wf = float(loop.plant.forced_damping_frequency(speed)) if w_F is None else w_F
-        lwi = loop_with_input(loop, speed, wf, actuators, sensors)
+        lwi = loop.with_inputs(speed, wf, actuators, sensors)
         A, B, Cy = lwi.A, lwi.B, lwi.C
         Nt = A.shape[0]
         Q = Cy.T @ (weights[:, None] * Cy)

@@ -32,112 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..analysis.sampled_loop import SampledLoop, SampledPoles, _df2t_realisation
-from ..analysis.transfer import quantity
-from ..control.spec import FEEDBACK_ORDER
+from ..analysis.sampled_loop import LoopWithInput, SampledLoop, SampledPoles
 from ..errors import ModelError
-from ..models.discretize import discretize_plant
 from .laws import convergence_radius, update_matrices
 
 HELD_TOL = 1e-9
-
-
-@dataclass(frozen=True)
-class LoopWithInput:
-    """``X+ = A X + B f``, ``e = C X``: the sampled loop with forces ``f`` added at some
-    actuators and the measured quantities ``e``."""
-
-    A: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    n_drift: int
-    #: ``X+ = ... + Re{Be a e^{j theta_k}}``, ``e = ... + Re{De a e^{j theta_k}}``: the plant's
-    #: synchronous excitations (amplitudes ``a``) at the loop's speed (complex)
-    Be: np.ndarray | None = None
-    De: np.ndarray | None = None
-
-
-def _row(plant, name, dp, Nt, held, F):
-    """State row of a measured quantity (acceleration: with the held forces' feed-through) and
-    its feed-through of the excitations ``F`` (n, ne) at the sample instant."""
-    kind, row, order, _ = quantity(plant, name)
-    if kind != "row":
-        raise ModelError(f"{name!r} is a force, not a measured quantity")
-    n, N = plant.n, 2 * plant.n
-    out = np.zeros(Nt)
-    through = np.zeros(F.shape[1], complex)
-    if order == 0:
-        out[:n] = row
-    elif order == 1:
-        out[n:N] = row
-    else:
-        P = np.array([a.force_vector for a in plant.actuators]).reshape(-1, n).T
-        out[:N] = row @ dp.accel_state
-        out[held] = row @ dp.accel_force @ P
-        through = row @ dp.accel_force @ F
-    return out, through
-
-
-def loop_with_input(loop: SampledLoop, speed_rad_s: float, w_F: float, input_ids, output_names
-                    ) -> LoopWithInput:
-    """The sampled loop (DESIGN.md section 3) with added forces and chosen outputs."""
-    p = loop.plant
-    dp = discretize_plant(p, speed_rad_s, w_F, loop.sample_period_s)
-    ids = [a.id for a in p.actuators]
-    N, na = 2 * p.n, len(ids)
-    ctrl = list(loop.controllers)
-    reals = [_df2t_realisation(loop.controllers[c]) for c in ctrl]
-    delays = [loop.delay_samples.get(c, 0) for c in ctrl]
-    Nt = N + na + sum(r[0].shape[0] for r in reals) + sum(delays)
-    held = slice(N, N + na)
-    A = np.zeros((Nt, Nt))
-    F = np.array([e.phasor(speed_rad_s) for e in p.excitations]).reshape(-1, p.n).T  # (n, ne)
-    ne = F.shape[1]
-    uX = np.zeros((na, Nt))                     # total force = uX X + ue a + S_h f
-    ue = np.zeros((na, ne), complex)
-    Be = np.zeros((Nt, ne), complex)
-    k = N + na
-    for c, (Ac, Bc, Cc, Dc), d in zip(ctrl, reals, delays):
-        tf = loop.controllers[c]
-        act = p.actuator(c)
-        mX, me = _row(p, f"foot_{c}_{'dva'[FEEDBACK_ORDER[tf.feedback]]}{act.axis}", dp, Nt,
-                      held, F)
-        nc = Ac.shape[0]
-        xi = slice(k, k + nc)
-        if d:
-            w0 = k + nc
-            A[w0] = mX
-            Be[w0] = me
-            for j in range(1, d):
-                A[w0 + j, w0 + j - 1] = 1.0
-            tX = np.zeros(Nt)
-            tX[w0 + d - 1] = 1.0
-            te = np.zeros(ne, complex)
-        else:
-            tX, te = mX, me
-        A[xi, xi] = Ac
-        A[xi] += np.outer(Bc, tX)
-        Be[xi] = np.outer(Bc, te)
-        i = ids.index(c)
-        uX[i, xi] = -Cc
-        uX[i] -= Dc * tX
-        ue[i] = -Dc * te
-        k += nc + d
-    S = np.zeros((na, len(input_ids)))
-    for j, a in enumerate(input_ids):
-        S[ids.index(p.actuator(a).id), j] = 1.0
-    A[:N, :N] = dp.Phi
-    A[:N] += dp.Gamma_u @ uX
-    A[held] = uX
-    B = np.zeros((Nt, len(input_ids)))
-    B[:N] = dp.Gamma_u @ S
-    B[held] = S
-    Be[:N] = dp.Gamma_e + dp.Gamma_u @ ue
-    Be[held] = ue
-    rows = [_row(p, name, dp, Nt, held, F) for name in output_names]
-    C = np.array([r for r, _ in rows]).reshape(-1, Nt)
-    De = np.array([t for _, t in rows]).reshape(-1, ne)
-    return LoopWithInput(A, B, C, loop._n_drift(), Be, De)
 
 
 def _real(M: np.ndarray) -> np.ndarray:
@@ -169,7 +68,7 @@ def harmonic_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, actuators,
     if P % every:
         raise ModelError(f"update_every_samples {every} does not divide the {P} samples of a "
                          "revolution (the loop would not be periodic per revolution)")
-    lwi = lwi or loop_with_input(loop, speed_rad_s, w_F, actuators, sensors)
+    lwi = lwi or loop.with_inputs(speed_rad_s, w_F, actuators, sensors)
     H, M, N = len(harmonics), len(sensors), len(actuators)
     Nt = lwi.A.shape[0]
     na, nu = 2 * H * M, 2 * H * N
@@ -224,7 +123,7 @@ def excitation_loop_poles(loop: SampledLoop, speed_rad_s: float, w_F: float, sen
     exact model is assumed (the block's prediction removes the internal loop's own response)."""
     T = loop.sample_period_s
     P = samples_per_revolution(speed_rad_s, T)
-    lwi = lwi or loop_with_input(loop, speed_rad_s, w_F, [], sensors)
+    lwi = lwi or loop.with_inputs(speed_rad_s, w_F, [], sensors)
     Nt, M, ne = lwi.A.shape[0], len(sensors), lwi.Be.shape[1]
     xs, ar, ai, cs = (slice(0, Nt), slice(Nt, Nt + M), slice(Nt + M, Nt + 2 * M),
                       slice(Nt + 2 * M, Nt + 2 * M + 2 * ne))
@@ -323,12 +222,12 @@ def gain_schedule(loop: SampledLoop, schedule, settings, speeds_rad_s, candidate
         w = 2 * np.pi / (P * T)
         wf = w if w_F is None else w_F
         if excitation_loop:
-            lwi = loop_with_input(loop, w, wf, [], schedule.sensors)
+            lwi = loop.with_inputs(w, wf, [], schedule.sensors)
             radii = [excitation_loop_poles(loop, w, wf, schedule.sensors,
                                            schedule.disturbance_at(w), settings.law, g,
                                            lwi=lwi, **kw).max_abs_z for g in candidates]
         else:
-            lwi = loop_with_input(loop, w, wf, schedule.actuators, schedule.sensors)
+            lwi = loop.with_inputs(w, wf, schedule.actuators, schedule.sensors)
             radii = [harmonic_poles(loop, w, wf, schedule.actuators, schedule.sensors,
                                     schedule.harmonics, schedule.at(w), settings.law, g,
                                     update_every_samples=0, lwi=lwi, **kw).max_abs_z

@@ -35,7 +35,7 @@ from ..analysis.sampled_loop import machine_sampled_loop
 from ..errors import ModelError
 from ..machine import models_supporting
 from .laws import convergence_radius, update_matrices
-from .lti import harmonic_poles, loop_with_input, stable_gain_limit
+from .lti import harmonic_poles, stable_gain_limit
 
 TAIL = 5
 PHASE_STEP_DEG = 5.0
@@ -118,7 +118,7 @@ def robustness(scenario, block) -> dict:
     G = block.schedule.at(w)
     gain = block.gain_at(w)
     loop = machine_sampled_loop(scenario.machine, T)
-    lwi = loop_with_input(loop, w, w, block.actuator_ids, block.sensors)
+    lwi = loop.with_inputs(w, w, block.actuator_ids, block.sensors)
 
     def radius(g, est=G):
         return harmonic_poles(loop, w, w, block.actuator_ids, block.sensors, block.harmonics,

@@ -150,7 +150,7 @@ def read_params(cfg: Section) -> model.RotorParams:
     s = read_part(MODEL_SETTINGS, cfg)
     st, ro, ho, fo = s.stator, s.rotor, s.housings, s.foundation
     rigid = fo.kind == "rigid"
-    if rigid:       # the foundation's stiffness and damping do not enter (digest 3.3)
+    if rigid:       # the foundation's stiffness and damping do not enter (no z_s, y_s, phi_s)
         c_fz = c_fy = tan_f = 0.0
     else:
         c_fz, c_fy, tan_f = fo.stiffness_n_per_m.z, fo.stiffness_n_per_m.y, fo.tan_delta

@@ -1,6 +1,6 @@
 """Sci. Rep. 2023 (Sci. Rep. 2023): rigid shaft on two piezo-actuated active bearings, 12 DOF.
 
-Generalised coordinates (eqs. 6-7, 0-based here; digest 2): the y block ``eps_r_y`` (rotor centre
+Generalised coordinates (eqs. 6-7, 0-based here): the y block ``eps_r_y`` (rotor centre
 of mass), ``eps_bh_y_1``, ``eps_ac_y_1``, ``eps_bh_y_2``, ``eps_ac_y_2`` (bearing housings and
 actuator masses), ``theta_x`` (tilt about x), then the same six for x with ``theta_y``.
 
@@ -11,17 +11,18 @@ are assembled from the springs ``k w w^T`` (Kelvin-Voigt elements): ball bearing
 between shaft and housing, piezo stack ``k_ac, c_ac`` between housing and actuator mass, rubber
 grommet ``k_pre, c_pre`` from housing to ground, backing spring ``k_sp, c_sp`` from actuator mass
 to ground, and ``k_r`` on the tilt (no damping analogue, eq. 3). This reproduces eqs. (2)-(5)
-with the digest's correction A3: row 5 holds ``k_ac,2 + k_sp,2`` (the paper prints ``k_ac,1``).
+with one typo corrected: row 5 holds ``k_ac,2 + k_sp,2`` (the paper prints ``k_ac,1``).
 
-Corrections (digest section 9) built in, each justified by a test of the physics it restores:
+Corrections of the paper built in, each justified by a test of the physics it restores:
 
-* A2 -- the ``Omega I`` block of eq. (10) is the gyroscopic matrix: ``G[theta_x, theta_y] =
+* the ``Omega I`` block of eq. (10) is the gyroscopic matrix: ``G[theta_x, theta_y] =
   +Omega I_p``, ``G[theta_y, theta_x] = -Omega I_p`` (``I_p`` the shaft's polar inertia);
-* A4 -- the four actuator forces act on the actuator masses (eqs. 8-9 show one force only);
-* A12 -- the unbalance is a rotating force ``m_o e (Omega^2 - j Omega') e^{j theta}`` on the
+* the four actuator forces act on the actuator masses (eqs. 8-9 show one force only);
+* the unbalance is a rotating force ``m_o e (Omega^2 - j Omega') e^{j theta}`` on the
   centre of mass with ``p2 = e_x - j e_y``: ``f_x = m_o e Omega^2 cos(theta)``, ``f_y = m_o e
   Omega^2 sin(theta)`` (eqs. 16-17 print x and y in phase, a line rather than a rotating force);
-* A7 -- the sensor transform ``Pi`` (eq. 11) puts sensor 1 on the bearing-1 side in both planes.
+* the sensor transform ``Pi`` (eq. 11) puts sensor 1 on the bearing-1 side in both planes (eq. 11
+  uses one tilt row for both, which puts the y-plane sensor 1 on the bearing-2 side).
 
 Actuators ``y1, x1, y2, x2`` push on the actuator masses; each one's sensor row is the motion of
 its housing in its direction (the paper cancels housing motion). Outputs (displacements, m): the
@@ -59,7 +60,7 @@ def plane_mask(plane: str) -> np.ndarray:
 
 
 def shaft_row(z_m: float, plane: str) -> np.ndarray:
-    """Row giving the shaft displacement at axial position ``z_m`` in one plane (digest 2)."""
+    """Row giving the shaft displacement at axial position ``z_m`` in one plane."""
     row = np.zeros(len(COORDS))
     row[index(PLANE_COORDS[plane][0])] = 1.0
     row[index(PLANE_COORDS[plane][5])] = LEVER_SIGN[plane] * z_m
@@ -75,7 +76,8 @@ def basis(coord: str) -> np.ndarray:
 
 def sensor_transform(l1_sen: float, l2_sen: float) -> np.ndarray:
     """``Pi`` of eq. (11), ``q = Pi q'``, for sensor 1 at ``z = -l1_sen`` (bearing-1 side) and
-    sensor 2 at ``z = +l2_sen`` in both planes (digest 3.7, consistent convention, A7).
+    sensor 2 at ``z = +l2_sen`` in both planes (the paper's eq. (11) puts the y-plane sensor 1 on
+    the bearing-2 side).
 
     ``q' = [xi_sen1_y, xi_sen2_y, eps_bh_y_1, eps_ac_y_1, eps_bh_y_2, eps_ac_y_2, (same for x)]``
     (eqs. 12-13). The centre of mass is the internal-division point of the two sensors."""
@@ -92,7 +94,7 @@ def sensor_transform(l1_sen: float, l2_sen: float) -> np.ndarray:
 
 def shaft_mass_properties(density: float, diameter: float, length: float) -> tuple[float, float, float]:
     """``(m_R, I_R, I_p)`` of a uniform cylindrical shaft: mass, transverse inertia about the
-    centre of mass ``m (3 r^2 + L^2) / 12`` and polar inertia ``m r^2 / 2`` (digest 5)."""
+    centre of mass ``m (3 r^2 + L^2) / 12`` and polar inertia ``m r^2 / 2``."""
     r = diameter / 2
     m = density * np.pi * r**2 * length
     return m, m * (3 * r**2 + length**2) / 12, m * r**2 / 2

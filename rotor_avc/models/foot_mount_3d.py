@@ -4,14 +4,15 @@ Generalised coordinates (eq. 10, 0-based here): machine ``z_s, y_s, x_s, phi_sz,
 phi_sx`` and the vertical, lateral and axial displacements of the four foundation points in the
 order DL, DR, NL, NR.
 
-The matrices are assembled from the foot kinematics (digest section 2.2)::
+The matrices are assembled from the foot kinematics, which the paper defers to its ref. [22];
+the actuator vectors (16)-(19) and the Appendix coefficients fix them uniquely::
 
     z_a,ij = z_s + alpha_i phi_sy + beta_j phi_sx
     y_a,ij = y_s - alpha_i phi_sz - h phi_sx
     x_a,ij = x_s - beta_j phi_sz + h phi_sy
     alpha_D = +a_D, alpha_N = -a_N, beta_L = -b_L, beta_R = +b_R
 
-as ``C = sum_ij sum_q c_aq w_q w_q^T + sum c_fq e e^T`` with ``w_q = [R_q, -e_qf]`` (digest 3.4),
+as ``C = sum_ij sum_q c_aq w_q w_q^T + sum c_fq e e^T`` with ``w_q = [R_q, -e_qf]``,
 which reproduces the Appendix formulas (55)-(134) with the typos of (72) and (81) fixed; the test
 suite checks it against the Appendix entries written out. Damping: ``D_eta`` from the same
 formulas with ``c -> c tan(delta)`` (eq. 8); gyroscopic ``G[phi_sz, phi_sy] = +Omega theta_rx``
@@ -19,7 +20,8 @@ formulas with ``c -> c tan(delta)`` (eq. 8); gyroscopic ``G[phi_sz, phi_sy] = +O
 0...]`` (moment, per kg m^2) times ``Omega^2`` (eqs. 13-14).
 
 Mounting ``direct`` (case 1) ties each foundation point rigidly to its foot and reduces the model
-to the six machine coordinates, ``q = T_r q6`` (digest 3.10); outputs are expanded with ``T_r``.
+to the six machine coordinates, ``q = T_r q6`` (the paper gives no model for case 1); outputs
+are expanded with ``T_r``.
 """
 from __future__ import annotations
 
@@ -65,7 +67,7 @@ class FootElement:
 
 @dataclass(frozen=True)
 class FootMountParams:
-    """The Werner 2021 machine, its feet and the foundation (SI units; digest 2)."""
+    """The Werner 2021 machine, its feet and the foundation (Tables 1-4; SI units)."""
 
     stator_mass_kg: float
     rotor_mass_kg: float
@@ -127,7 +129,7 @@ def build(p: FootMountParams, name: str, damping_floor_rad_s: float, config: dic
     p_alpha = np.zeros(n, complex)
     p_alpha[3:5] = [1.0, -1j]
 
-    # bearing housings on the rotor axis at +l_D (D) and -l_N (N), h = beta = 0 (digest 2.2)
+    # bearing housings on the rotor axis at +l_D (D) and -l_N (N), h = beta = 0
     bearing = {"D": l_D, "N": -l_N}
     out_rows: list[tuple[str, np.ndarray]] = []
     for side, pos in bearing.items():

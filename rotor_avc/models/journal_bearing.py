@@ -1,7 +1,7 @@
 """Cylindrical (plain, 360 deg) journal bearing: Reynolds film, equilibrium, dynamic coefficients.
 
 Werner 2019 needs the oil-film coefficients ``c_ij(Omega)``, ``d_ij(Omega)`` of its sleeve bearings
-(paper Fig. 3, missing; digest section 7 item 1); the paper points to Lund & Thomsen (1978) and
+(paper Fig. 3, missing); the paper points to Lund & Thomsen (1978) and
 Someya (2013) for them. This module computes them the way those references do.
 
 **Film** (isoviscous, incompressible, aligned journal). With the journal centre at ``(X, Y)``

@@ -1,11 +1,11 @@
 """A piezo stack actuator with its real limits: stroke, blocked force, voltage and bandwidth.
 
 Sci. Rep. 2023 blames the loss of control at high speed on the limited piezo stroke but states no
-actuator data (digest 6, 10). A multilayer stack of stiffness ``k_p`` driven by voltage ``V``
-develops the force ``k_p delta_free(V)`` across itself, where the free (unloaded) elongation is
-linear in the voltage: ``delta_free = delta_0 V / V_max`` with the nominal stroke ``delta_0`` and
-the blocked force ``F_b = k_p delta_0`` at ``V_max``. The model's actuator force ``f_ac`` (digest
-3.6) is this generated force, so one sinusoidal force amplitude ``|F|`` needs
+actuator data. A multilayer stack of stiffness ``k_p`` driven by voltage ``V`` develops the force
+``k_p delta_free(V)`` across itself, where the free (unloaded) elongation is linear in the
+voltage: ``delta_free = delta_0 V / V_max`` with the nominal stroke ``delta_0`` and the blocked
+force ``F_b = k_p delta_0`` at ``V_max``. The model's actuator force ``f_ac`` (the paper's force
+vector, eqs. 8-9) is this generated force, so one sinusoidal force amplitude ``|F|`` needs
 
 * the free-stroke amplitude ``|F| / k_p`` and the voltage amplitude ``|F| V_max / (F_b |G(j Omega)|)``;
 * within the drive range ``[V_min, V_max]``: a sinusoid about the mid voltage has at most the

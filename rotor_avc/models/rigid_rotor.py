@@ -1,14 +1,16 @@
 """Zhou & Shi 2001 (Zhou & Shi 2001): rigid rotor on two isotropic bearings, spin axis Y.
 
 Generalised coordinates ``q = [R_X, R_Z, theta, psi]`` (paper eq. 1): translations of the mass
-centre and the two tilt angles. The bearings sit at ``y = +-L/2`` (digest 2: the conical
-stiffness ``k L^2 / 2 = 2 k (L/2)^2``), each with stiffness ``k`` and viscous damping ``c``::
+centre and the two tilt angles. The bearings sit at ``y = +-L/2`` (as the conical stiffness
+``k L^2 / 2 = 2 k (L/2)^2`` of eq. 1 implies), each with stiffness ``k`` and viscous damping
+``c``::
 
     M = diag(m, m, I_t, I_t),  C = diag(2k, 2k, k L^2/2, k L^2/2),  D_v = diag(2c, 2c, c L^2/2, ...)
     G1[theta, psi] = -I_p, G1[psi, theta] = +I_p      (the I_p phi' terms of A(t), eq. 1)
 
-The shaft is a solid cylinder (digest 9 item 1): ``m = rho pi r^2 L``, ``I_t = m (3 r^2 + L^2) / 12``,
-``I_p = m r^2 / 2``. ``rotor.gyroscopic: false`` (the paper's analysis) drops G1. The ``I_p phi''`` coupling of A(t) is a stiffness proportional to the angular
+The shaft is a solid cylinder (the paper gives only ``L`` and ``r``): ``m = rho pi r^2 L``,
+``I_t = m (3 r^2 + L^2) / 12``, ``I_p = m r^2 / 2``. ``rotor.gyroscopic: false`` (the paper's
+analysis) drops G1. The ``I_p phi''`` coupling of A(t) is a stiffness proportional to the angular
 acceleration; a LinearPlant cannot carry it, so only the run-up simulator
 (:mod:`rotor_avc.balancing.rigid_runup`) has it. The paper drops both gyroscopic terms.
 
@@ -21,7 +23,7 @@ mass ``m_u`` at body coordinates ``(u_x, u_y, u_z)`` gives (from the B matrix of
 
 The complex amplitude is the conjugate of the paper's ``a + i b`` form because the rotor turns
 from +Z towards +X (clockwise in the X-Z plane) while the LinearPlant phasor turns forwards.
-A point on the axis at ``y`` moves by ``X = R_X - y psi``, ``Z = R_Z + y theta`` (digest 2).
+A point on the axis at ``y`` moves by ``X = R_X - y psi``, ``Z = R_Z + y theta``.
 """
 from __future__ import annotations
 
@@ -71,7 +73,7 @@ class RigidRotor:
 
 
 def axis_point_row(axial_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of ``X`` and ``Z`` of the spin-axis point at ``y = axial_m`` (digest 2)."""
+    """Rows of ``X`` and ``Z`` of the spin-axis point at ``y = axial_m``."""
     return np.array([1.0, 0, 0, -axial_m]), np.array([0, 1.0, axial_m, 0])
 
 

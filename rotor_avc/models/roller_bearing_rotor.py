@@ -6,7 +6,8 @@ y_b`` -- stator centre of gravity S (vertical, horizontal, roll about x), rotor 
 shaft journals and bearing housings (both machine sides lumped; masses, bearing, housing and foot
 stiffnesses are per side, ``c`` is the total shaft stiffness). Mass matrix eq. (8).
 
-Stiffness and loss-factor damping (eqs. 2-4, 9-10, rebuilt in digest 3.3) are assembled from the
+Stiffness and loss-factor damping (eqs. 2-4, 9-10; the available text of the paper lacks the
+matrices of eqs. 9-10, so they are rebuilt from its model description) are assembled from the
 springs ``k w w^T``: shaft ``c`` on ``z_w - z_v`` and ``y_w - y_v``; roller bearings ``2 c_r`` on
 ``z_b - z_v`` (no damping); housings ``2 c_b`` on ``z_s - z_b``; feet ``c_fz`` on
 ``z_f = z_s -+ b phi_s`` and ``2 c_fy`` on ``y_f = y_s - h phi_s`` (eq. 5). ``D_eta`` carries the
@@ -16,9 +17,9 @@ circulatory part ``d_i Omega`` (the skew entries of eq. 9) is ``N_eta = c tan(de
 rotor turns and whirls forward from +z towards +y.
 
 ``foundation.kind: rigid`` (Table 2 cases d, e) deletes ``z_s, y_s, phi_s``: a 6-DOF rotor whose
-housings are grounded (digest 3.3). Actuators ``L``/``R`` push vertically between each foot and
-the ground (``P_a = s = e_zs -+ b e_phi``, digest 9); the unbalance acts on the rotor mass
-(``f_z + j f_y = m e Omega^2 e^{j(Omega t + phi)}``, digest 2).
+housings are grounded. Actuators ``L``/``R`` push vertically between each foot and the ground
+(``P_a = s = e_zs -+ b e_phi``) and the unbalance acts on the rotor mass (``f_z + j f_y = m e
+Omega^2 e^{j(Omega t + phi)}``); both are additions, as the paper has neither.
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ ROTOR_SIDE = ("z_w", "y_w", "z_v", "z_b", "y_v", "y_b")
 
 @dataclass(frozen=True)
 class RotorParams:
-    """The model's parameters in SI units (per side unless stated; digest 2 and 4)."""
+    """The model's parameters in SI units (per side unless stated)."""
 
     m_s: float
     theta_sx: float

@@ -6,7 +6,7 @@ y_v, y_b, y_fL, y_fR`` -- stator (at its centre of gravity S), rotor mass, stato
 journals and bearing housings (both sides lumped, hence the factors 2 on their masses, springs
 and oil films), left/right foundation masses. The rotor turns from +z towards +y.
 
-M, D, C of eqs. (11)-(13) are assembled element by element (digest 3.1):
+M, D, C of eqs. (11)-(13) are assembled element by element:
 
 * shaft ``c`` (rotor mass - journals), loss factor ``tan delta_i``, and its rotating damping as
   circulatory stiffness ``d_i Omega (r_z r_y^T - r_y r_z^T)`` with ``r = e_w - e_v``;
@@ -23,8 +23,8 @@ vector ``P_az = e1 -/+ b e5 - e8 (e9)`` (eqs. 16-17), sensor row ``z_a = e1 -/+ 
 
 **Oil films** (paper Fig. 3, missing): the eight coefficients of each bearing from the Reynolds
 equation, :mod:`rotor_avc.models.journal_bearing`, under the static load ``(m_w / 2 + m_v) g``
-(digest 5; z = load direction, y = 90 deg ahead in the direction of rotation, digest 7 item 2),
-tabulated over the bearing's speed range and interpolated.
+(assumed: the paper states neither the load nor its direction; z = load direction, y = 90 deg
+ahead in the direction of rotation), tabulated over the bearing's speed range and interpolated.
 
 **Electromagnetic field** (paper Fig. 4, missing) -- an eccentricity-field model after
 Fruechtenicht, Jordan & Seinsch (the paper's refs. [21], [23]): a whirl of the rotor at ``w_F``

@@ -10,7 +10,7 @@ Sampling contract, sample ``k`` at ``t_k = k T``:
 2. the controllers compute ``u_k`` from ``y_k``;
 3. :meth:`~PlantStepper.step` holds ``u_k`` over ``[t_k, t_k+1)`` and advances to ``x_{k+1}``.
 
-Unbalance forcing (Werner 2021 eqs. 13-14, the digest's real form with ``theta = int Omega dt``, and
+Unbalance forcing (Werner 2021 eqs. 13-14 in real form with ``theta = int Omega dt``, and
 the tangential ``-j Omega'`` term of an accelerating rotor, Zhou & Shi 2001 eq. 1)::
 
     f_e(t) = Re{ sum_j k_j(Omega) [(Omega^2 - j Omega') p2_j + Omega p1_j + p0_j] (u_j + c_j)
