@@ -28,7 +28,8 @@ KINDS = {
              "launch_file", "layouts", "lockstep_record", "nodes_lockstep", "nodes_timing", "resources",
              "rosbag2_bags", "sim_profile", "sim_scenario", "sim_streaming", "sleeve_bearing_cli",
              "suite_kinds", "bag_info", "bag_sequence_streaming", "output_errors", "isolation",
-             "studies_hostile", "declared_simulation", "declared_balancer", "seams"),
+             "studies_hostile", "declared_simulation", "declared_balancer", "seams",
+             "golden_outputs"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
               "balancing_runup_response", "balancing_switching", "foot_mount_model",
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",
@@ -57,6 +58,8 @@ KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in nam
 def pytest_addoption(parser):
     parser.addoption("--full", action="store_true", default=False,
                      help="run the long physics sweeps in full instead of their short form")
+    parser.addoption("--update-golden", action="store_true", default=False,
+                     help="write test/golden/ from the current outputs (test_golden_outputs)")
 
 
 def pytest_configure(config):
