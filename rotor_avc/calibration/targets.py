@@ -40,7 +40,7 @@ import numpy as np
 import scipy.signal
 
 from ..analysis.frf_estimate import h1_random_error
-from ..analysis.transfer import sampled_transfer_frf, transfer_frf
+from ..analysis.loop_responses import force_response
 from ..compare.checks import HARMONIC, MIN_COHERENCE, SETTLE_TOL
 from ..compare.comparison import Comparison, model_loops, unbalance_models
 from ..errors import ModelError
@@ -72,14 +72,10 @@ class BandPoints:
     kernel: tuple | None = None
 
     def _transfer(self, loops: dict, f: np.ndarray) -> np.ndarray:
-        if self.continuous:
-            loop = loops["continuous"]
-            floor = loop.plant.forced_damping_frequency(0.0)
-            frf = transfer_frf(loop, self.speed_rad_s, f, self.actuator, self.outputs,
-                               np.maximum(2 * np.pi * f, floor))
-        else:
-            frf = sampled_transfer_frf(loops["sampled"], self.speed_rad_s, f, self.actuator,
-                                       self.outputs, self.w_F)
+        loop = loops["continuous" if self.continuous else "sampled"]
+        w_F = (np.maximum(2 * np.pi * f, loop.plant.forced_damping_frequency(0.0))
+               if self.continuous else self.w_F)
+        frf = force_response(loop, self.speed_rad_s, f, self.actuator, self.outputs, w_F)
         return np.column_stack([frf.responses[o] for o in self.outputs])
 
     def model(self, loops: dict) -> np.ndarray:

@@ -80,7 +80,6 @@ from ..errors import ModelError
 from ..models.plant import Output
 from ..analysis import order_tracking
 from ..closed_loop.loop import ClosedLoop
-from ..closed_loop.frf import unbalance_frf
 from ..analysis.frf_estimate import (MIN_AVERAGES, MIN_SEGMENT, FrfEstimate, contiguous_runs,
                                      estimate_frf, estimate_frf_gapped, gapped_segment_length)
 from ..analysis.poles import closed_loop_poles
@@ -88,7 +87,7 @@ from .bag_source import BagSource
 from .recorded_run import MAX_DWELL_SAMPLES, read_run
 from .run_source import RunSource
 from ..analysis.sampled_loop import SampledLoop
-from ..analysis.transfer import sampled_transfer_frf, transfer_frf
+from ..analysis.loop_responses import force_response, unbalance_response
 from .checks import (DEAD_DB, HARMONIC, MIN_BROADBAND_SAMPLES, MIN_COHERENCE, Broadband, Check, OneX,
                      _broadband_checks, _db, _dead_channels, _no_verdict_reason, _one_x_checks,
                      _one_x_metrics)
@@ -147,8 +146,7 @@ def unbalance_models(scenario, loops, speeds, u_ref, channels) -> dict[str, dict
     amps = {k: v for k, v in scenario.amplitudes.items() if v != 0}
     out = {}
     for name, loop in loops.items():
-        frf = (unbalance_frf(loop, speeds, list(amps), w_F) if name == "continuous"
-               else loop.unbalance_frf(speeds, list(amps), w_F))
+        frf = unbalance_response(loop, speeds, list(amps), w_F)
         out[name] = {ch: sum(frf.responses[f"{ch}_{e}"] * u for e, u in amps.items()) / u_ref
                      for ch in channels}
     return out
@@ -168,14 +166,13 @@ def _harmonic_models(run, loops, speeds, inputs: dict, channels) -> dict:
     """``sum_a T_a(Omega) F_a`` per model and channel: the response to the harmonic controller's
     forces (``inputs``: channel -> measured 1x per speed, per unit ``u_ref``)."""
     w_F = np.broadcast_to(run.scenario.damping.w_F(run.machine.plant, speeds), speeds.shape)
-    transfer = {"continuous": transfer_frf, "sampled": sampled_transfer_frf}
     out = {}
     for name, loop in loops.items():
         out[name] = {ch: np.zeros(speeds.shape, complex) for ch in channels}
         for k, speed in enumerate(speeds):
             for ch, force in inputs.items():
                 act = ch[len(HARMONIC):].rsplit("_f", 1)[0]
-                frf = transfer[name](loop, float(speed), speed / (2 * np.pi), act, channels,
+                frf = force_response(loop, float(speed), speed / (2 * np.pi), act, channels,
                                      float(w_F[k]))
                 for c in channels:
                     out[name][c][k] += frf.responses[c][0] * force[k]
@@ -326,10 +323,8 @@ def compare_broadband(run: RunSource, loops: dict) -> list[Broadband]:
         sel = (est.freq_hz >= max(lo, est.resolution_hz)) & (est.freq_hz <= hi)
         f = est.freq_hz[sel]
         w_F = float(run.scenario.damping.w_F(run.machine.plant, np.array(speed)))
-        models = {"continuous": transfer_frf(loops["continuous"], speed, f, test.actuator,
-                                             outputs, w_F),
-                  "sampled": sampled_transfer_frf(loops["sampled"], speed, f, test.actuator,
-                                                  outputs, w_F)}
+        models = {m: force_response(loop, speed, f, test.actuator, outputs, w_F)
+                  for m, loop in loops.items()}
         bb = Broadband(speed, w_F, est, outputs, (lo, hi), models)
         for m, model in models.items():
             bb.channels[m] = {}
