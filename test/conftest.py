@@ -2,21 +2,54 @@
 every test module is of one kind (:data:`KINDS`), marked so that ``pytest -m paper`` etc. selects it.
 
 ``--full`` runs the long physics sweeps in full (CI runs them in their short form)."""
+import fcntl
 import os
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
+#: ROS domains a test session may take when the one it is given is held by another session
+FREE_DOMAINS = range(110, 200)
+_DOMAIN_LOCK = []
+
+
+def _take_domain(domain: int) -> bool:
+    """Hold ``domain`` for this session (an exclusive lock on a file named after it, released when
+    the process ends): True if no other session on this machine holds it."""
+    fh = open(os.path.join(tempfile.gettempdir(), f"rotor_avc_ros_domain_{domain}.lock"), "a")
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        return False
+    _DOMAIN_LOCK.append(fh)
+    return True
+
+
+def session_domain() -> int:
+    """The ROS domain of this test session: ``ROS_DOMAIN_ID`` as given (the Makefile's and CI's),
+    unless another session on this machine holds it; then the first free one of
+    :data:`FREE_DOMAINS`. Two sessions never share a domain, so their graphs never meet."""
+    given = os.environ.get("ROS_DOMAIN_ID", "")
+    if given.isdigit() and _take_domain(int(given)):
+        return int(given)
+    for domain in FREE_DOMAINS:
+        if _take_domain(domain):
+            return domain
+    raise RuntimeError(f"every ROS domain of {FREE_DOMAINS} is held by another test session")
+
+
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ["ROS_DOMAIN_ID"] = str(100 + os.getpid() % 100)
+os.environ["ROS_DOMAIN_ID"] = str(session_domain())
 os.environ.setdefault("MPLBACKEND", "Agg")
 # small dense matrices: threaded BLAS only adds contention on a 2-core machine (5-30x slower)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 #: what each test module checks against -- ``unit``: the code's own contract (errors, files,
-#: commands, structure); ``paper``: the digests' stated numbers and the papers' equations;
+#: commands, structure); ``paper``: the papers' stated numbers and equations;
 #: ``cross_method``: two formulations, an independent library or a closed form agree;
 #: ``ros_integration``: ROS processes, DDS, bags of the graph, colcon and pip layouts
 KINDS = {

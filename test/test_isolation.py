@@ -2,10 +2,13 @@
 the including file's folder (and the package's config folder), and a rosbag2 ``metadata.yaml``
 entry outside the bag's folder (absolute, ``..``, a symbolic link leading out), are refused in one
 line without the file being opened or quoted; control characters in a config are refused in one
-line naming the file and line."""
+line naming the file and line. Test sessions are isolated from each other too: two never share a
+ROS domain (test/conftest.py)."""
 import builtins
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -162,3 +165,20 @@ def test_a_bag_entry_outside_its_folder_is_refused_unread(tmp_path, outside, ope
 def test_a_bag_listing_its_own_files_opens(tmp_path):
     with open_bag(_directory(tmp_path, ["bag_0.mcap"])) as bag:
         assert bag.message_count > 0
+
+
+def test_two_test_sessions_never_share_a_ros_domain():
+    """A second session given the same ROS_DOMAIN_ID (the Makefile's, CI's) while this one holds
+    it takes another free domain; one given a free domain keeps it."""
+    mine = int(os.environ["ROS_DOMAIN_ID"])
+    probe = ("import os, sys; sys.path.insert(0, {test!r}); import conftest; "
+             "print(os.environ['ROS_DOMAIN_ID'])")
+    test_dir = os.path.dirname(os.path.abspath(__file__))
+    domains = {}
+    for given in (str(mine), "7"):
+        env = {**os.environ, "ROS_DOMAIN_ID": given}
+        out = subprocess.run([sys.executable, "-c", probe.format(test=test_dir)], env=env,
+                             capture_output=True, text=True, timeout=120, check=True)
+        domains[given] = int(out.stdout.strip())
+    assert domains[str(mine)] != mine and domains[str(mine)] in range(110, 200)
+    assert domains["7"] == 7
