@@ -12,7 +12,10 @@ bearing velocities at 2.5 kHz), a tacho pulse instead of the shaft angle, 2 us s
   85 % of the test band's bins per output (95 % for purely random error; the rest are bins next
   to the 1x line and at the band edge, where bias error dominates), and frf.uff reads back
   through pyuff with the same values;
-* a mapping with a wrong scale fails.
+* a mapping with a wrong scale fails;
+* ``shaft.pulse_angle_deg``: the same recording with the pulse declared at 40 degrees of shaft
+  angle gives every 1x phasor turned by exactly -40 degrees (``y = Re{Y e^{j theta}}`` with
+  ``theta`` 40 degrees ahead), and fails.
 """
 import csv
 import json
@@ -91,7 +94,7 @@ def test_stepped_recording_recovers_the_1x_response_and_lists_its_imperfections(
     assert off["passed"] and off["value"] <= 0.5
     rms = checks["1x band RMS error"]
     assert rms["passed"] and rms["value"] <= 0.5
-    assert status == (0 if data["pass"] else 1)
+    assert status == 0 and data["verdict"] == "PASS", data["checks"]
     # every dwell found from the pulses, at its speed
     speeds = [float(s) for s in re.search(r"1x: stepped-speed dwells at ([\d., ]+) Hz", out)
               .group(1).split(", ")]
@@ -170,3 +173,27 @@ def test_a_mapping_with_the_wrong_scale_fails(stepped, tmp_path):
     comp = compare_mapped(bag, config, mapping)
     off = next(c for c in comp.checks if c.name == "1x magnitude error away from resonances")
     assert off.passed is False and off.value > 15.0           # 20 log10(9.81) = 19.8 dB
+
+
+def _one_x(out):
+    rows = {}
+    for r in csv.DictReader(open(out / "frf.csv")):
+        if r["kind"] == "1x":
+            rows[(r["channel"], round(float(r["speed_hz"]), 3))] = float(r["measured_phase_deg"])
+    return rows
+
+
+def test_the_pulse_angle_turns_every_1x_phasor_by_it(stepped, tmp_path):
+    bag, config, mapping = stepped
+    turned = yaml.safe_load(mapping.read_text())
+    turned["shaft"]["pulse_angle_deg"] = 40.0
+    (tmp_path / "turned.yaml").write_text(yaml.safe_dump(turned))
+    assert main(["compare", str(bag), "--config", str(config), "--map", str(mapping),
+                 "--out", str(tmp_path / "zero")]) == 0
+    assert main(["compare", str(bag), "--config", str(config), "--map",
+                 str(tmp_path / "turned.yaml"), "--out", str(tmp_path / "turned")]) == 1
+    zero, forty = _one_x(tmp_path / "zero"), _one_x(tmp_path / "turned")
+    assert zero and set(zero) == set(forty)
+    for key, phase in zero.items():
+        shift = (forty[key] - phase + 180.0) % 360.0 - 180.0
+        assert abs(shift + 40.0) < 2e-3, (key, shift)          # the CSV's resolution
