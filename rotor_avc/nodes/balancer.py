@@ -23,18 +23,16 @@ from __future__ import annotations
 
 import math
 
-from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from ..balancing.loop_block import LoopBalancer
 from ..balancing.scenario import machine_setup
-from ..errors import RotorAvcError
 from ..blocks import LoopSample
 from . import messages as m
 from . import taps
-from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
-from .timing import LoopTiming
+from .feature_node import FeatureNode
+from .runtime import COMMON_PARAMS, Param, run_node
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config with a `balancer:` section"),
@@ -42,23 +40,20 @@ PARAMS = COMMON_PARAMS + (
 )
 
 
-class Balancer(Node):
+class Balancer(FeatureNode):
     """The balancer node (see the module docstring)."""
+
+    PARAMS = PARAMS
+    NEEDS = "a `balancer:` section"
+    TITLE = "balancer"
 
     def __init__(self, name: str = "balancer", **kwargs):
         super().__init__(name, **kwargs)
-        self.p = declare_parameters(self, PARAMS)
-        self.executor_kind = self.p["executor"]
-        sc = node_scenario(self, self.p["scenario"], "a scenario with a `balancer:` section")
-        if "balancer" not in sc.machine.config.data:
-            raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
-                                "`balancer:` section -- fix: use a balancer scenario")
-        self.block = LoopBalancer(machine_setup(sc.machine), sc.sample_period_s)
-        self.excitations = [e.name for e in sc.machine.plant.excitations]
+        self.excitations = [e.name for e in self.scenario.machine.plant.excitations]
         names = [f"{e}_{part}" for e in self.excitations for part in ("re", "im")]
         self.command = m.LabelledBytes(names)
         self.estimate = m.LabelledBytes(names)
-        ns = self.p["namespace"]
+        ns = self.namespace
         self.pub_cmd = taps.publisher(self, Float64MultiArray, m.topic("balancer/command", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_est = taps.publisher(self, Float64MultiArray, m.topic("balancer/estimate", ns),
@@ -67,27 +62,25 @@ class Balancer(Node):
                                  m.LOCKSTEP_QOS, raw=True)
         self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
                                  self._on_observables, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
-        self.create_timer(1.0, self._publish_diagnostics)
-        self.timing = LoopTiming(None)
         self.joints: dict[int, tuple[float, float]] = {}
         self.values: dict[int, tuple[float, ...]] = {}
         self.observables_label = ""
         self.names: tuple[str, ...] = ()          # of the observables after time_s
-        self.last_stamp = -1
         self.k = 0
         self.last_answer: bytes | None = None
-        self.faults = 0
-        self.last_fault = ""
+
+    def build(self, scenario):
+        if "balancer" not in scenario.machine.config.data:
+            return None
+        return LoopBalancer(machine_setup(scenario.machine), scenario.sample_period_s)
 
     def _on_joint(self, data: bytes) -> None:
-        try:
-            stamp, position, velocity = m.joint_state(data)
-        except m.MessageError as exc:
-            self._fault(f"rotor/joint_state ignored: {exc}")
+        joint = self.joint(data)
+        if joint is None:
             return
+        stamp, position, velocity = joint
         if len(position) < 1 or len(velocity) < 1:
-            self._fault("rotor/joint_state without position/velocity")
+            self.fault("rotor/joint_state without position/velocity")
             return
         self.joints[stamp] = (position[0], velocity[0])
         self._try(stamp)
@@ -105,7 +98,7 @@ class Balancer(Node):
                                      f"labels {label!r}")
             stamp = m.received_time_ns(values[0])
         except m.MessageError as exc:
-            self._fault(f"plant/observables ignored: {exc}")
+            self.fault(f"plant/observables ignored: {exc}")
             return
         self.values[stamp] = values
         self._try(stamp)
@@ -120,11 +113,11 @@ class Balancer(Node):
             self.pub_cmd.publish(self.last_answer)        # the plant resent this sample
             return
         if stamp < self.last_stamp:
-            self._fault(f"stale sample {stamp} ns after {self.last_stamp} ns: ignored")
+            self.fault(f"stale sample {stamp} ns after {self.last_stamp} ns: ignored")
             return
         updated = self.block.last_output
         if not all(map(math.isfinite, signals)) or not math.isfinite(speed):
-            self._fault(f"non-finite measurement at {stamp} ns: correction held")
+            self.fault(f"non-finite measurement at {stamp} ns: correction held")
             corr = self.block.correction
         else:
             self.timing.start()
@@ -147,20 +140,10 @@ class Balancer(Node):
         """``re, im`` of each excitation's amplitude in the labels' order."""
         return [x for e in self.excitations for x in (amplitudes[e].real, amplitudes[e].imag)]
 
-    def _fault(self, text: str) -> None:
-        self.faults += 1
-        if text != self.last_fault:
-            self.get_logger().warning(text)
-        self.last_fault = text
-
-    def _publish_diagnostics(self) -> None:
-        stats = self.timing.summary()
+    def status(self) -> tuple[str, str, dict]:
         out = self.block.last_output
-        stats.update({"faults": self.faults, "mode": out.mode if out else "estimate"})
         level, text = ("warn", self.last_fault) if self.last_fault else ("ok", "balancing")
-        self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0),
-                                            [(f"{self.get_name()}: balancer", level, text, stats),
-                                             m.published_status(self)]))
+        return level, text, {"mode": out.mode if out else "estimate"}
 
 
 def main(args=None) -> int:

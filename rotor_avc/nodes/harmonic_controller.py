@@ -20,17 +20,16 @@ from __future__ import annotations
 
 import math
 
-from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ..errors import ModelError, RotorAvcError
+from ..errors import ModelError
 from ..harmonic.block import MODES
 from ..sim.stepper import MeasurementLayout
 from . import messages as m
 from . import taps
-from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
-from .timing import LoopTiming
+from .feature_node import FeatureNode
+from .runtime import COMMON_PARAMS, Param, run_node
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config with `simulation.harmonic: true`"),
@@ -43,23 +42,21 @@ def force_names(plant, actuator_ids) -> list[str]:
     return [f"{a}_f{plant.actuator(a).axis}" for a in actuator_ids]
 
 
-class HarmonicControllerNode(Node):
+class HarmonicControllerNode(FeatureNode):
     """The harmonic controller node (see the module docstring)."""
+
+    PARAMS = PARAMS
+    NEEDS = "`simulation.harmonic: true`"
+    TITLE = "harmonic"
 
     def __init__(self, name: str = "harmonic_controller", **kwargs):
         super().__init__(name, **kwargs)
-        self.p = declare_parameters(self, PARAMS)
-        self.executor_kind = self.p["executor"]
-        sc = node_scenario(self, self.p["scenario"], "a scenario with `simulation.harmonic: true`")
-        self.block = sc.harmonic()
-        if self.block is None:
-            raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
-                                "`simulation.harmonic: true` -- fix: use a harmonic scenario")
+        sc = self.scenario
         self.block.reset()
         layout_names = MeasurementLayout(sc.machine.plant).names
         self.obs_label = ",".join(("time_s",) + tuple(layout_names))
         self.sensor_at = [1 + layout_names.index(s) for s in self.block.sensors]
-        ns = self.p["namespace"]
+        ns = self.namespace
         self.forces_msg = m.LabelledBytes(force_names(sc.machine.plant, self.block.actuator_ids))
         H, M, N = len(self.block.harmonics), len(self.block.sensors), len(self.block.actuator_ids)
         self.status_msg = m.LabelledBytes(
@@ -74,25 +71,21 @@ class HarmonicControllerNode(Node):
                                  m.LOCKSTEP_QOS, raw=True)
         self.create_subscription(Float64MultiArray, m.topic("plant/observables", ns),
                                  self._on_observables, m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
-        self.create_timer(1.0, self._publish_diagnostics)
-        self.timing = LoopTiming(None)
         self.shape = (H, M, N)
-        self.last_stamp = -1
         self.pending: dict[int, list] = {}          # stamp -> [angle/speed or None, signals]
         self.forces = [0.0] * N
-        self.faults = 0
-        self.last_fault = ""
+
+    def build(self, scenario):
+        return scenario.harmonic()
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_joint(self, data: bytes) -> None:
-        try:
-            stamp, position, velocity = m.joint_state(data)
-        except m.MessageError as exc:
-            self._fault(f"rotor/joint_state ignored: {exc}")
+        joint = self.joint(data)
+        if joint is None:
             return
+        stamp, position, velocity = joint
         if not (position and velocity):
-            self._fault(f"rotor/joint_state at {stamp} ns without angle or speed: ignored")
+            self.fault(f"rotor/joint_state at {stamp} ns without angle or speed: ignored")
             return
         self._arrived(stamp, 0, (position[0], velocity[0]))
 
@@ -103,7 +96,7 @@ class HarmonicControllerNode(Node):
                 raise m.MessageError("labels differ from the scenario's measurement vector")
             stamp = m.received_time_ns(values[0])
         except m.MessageError as exc:
-            self._fault(f"plant/observables ignored: {exc}")
+            self.fault(f"plant/observables ignored: {exc}")
             return
         self._arrived(stamp, 1, [values[i] for i in self.sensor_at])
 
@@ -130,9 +123,9 @@ class HarmonicControllerNode(Node):
             try:
                 self.forces = list(self.block.step(signals, angle, speed))
             except ModelError as exc:
-                self._fault(f"at {stamp} ns: {exc}; forces held")
+                self.fault(f"at {stamp} ns: {exc}; forces held")
         else:
-            self._fault(f"non-finite angle, speed or signal at {stamp} ns: forces held")
+            self.fault(f"non-finite angle, speed or signal at {stamp} ns: forces held")
         self.last_stamp = stamp
         self.timing.stop()
         self._publish(stamp)
@@ -145,20 +138,12 @@ class HarmonicControllerNode(Node):
     def _publish(self, stamp: int) -> None:
         self.pub_forces.publish(self.forces_msg.fill(stamp * 1e-9, self.forces))
 
-    def _fault(self, text: str) -> None:
-        self.faults += 1
-        self.last_fault = text
-        self.get_logger().warning(text)
-
-    def _publish_diagnostics(self) -> None:
+    def status(self) -> tuple[str, str, dict]:
         st = self.block.status
-        stats = self.timing.summary()
-        stats.update({"faults": self.faults, "mode": st["mode"], "updates": st["updates"],
-                      "saturated": st["saturated"], "reason": st["reason"]})
         level = "warn" if self.last_fault or st["mode"] in ("frozen", "fading") else "ok"
         text = self.last_fault or f"harmonic control: {st['mode']}"
-        self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0), [
-            (f"{self.get_name()}: harmonic", level, text, stats), m.published_status(self)]))
+        return level, text, {"mode": st["mode"], "updates": st["updates"],
+                             "saturated": st["saturated"], "reason": st["reason"]}
 
 
 def main(args=None) -> int:

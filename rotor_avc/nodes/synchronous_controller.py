@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import math
 
-from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..errors import RotorAvcError
 from . import messages as m
 from . import taps
-from .runtime import COMMON_PARAMS, Param, declare_parameters, node_scenario, run_node
-from .timing import LoopTiming
+from .feature_node import FeatureNode
+from .runtime import COMMON_PARAMS, Param, run_node
 
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config with `simulation.feedforward`"),
@@ -31,21 +29,19 @@ PARAMS = COMMON_PARAMS + (
 )
 
 
-class SynchronousController(Node):
+class SynchronousController(FeatureNode):
     """The feed-forward node (see the module docstring)."""
+
+    PARAMS = PARAMS
+    NEEDS = "`simulation.feedforward`"
+    TITLE = "feed-forward"
 
     def __init__(self, name: str = "synchronous_controller", **kwargs):
         super().__init__(name, **kwargs)
-        self.p = declare_parameters(self, PARAMS)
-        self.executor_kind = self.p["executor"]
-        sc = node_scenario(self, self.p["scenario"], "a scenario with `simulation.feedforward`")
-        self.generator = sc.feedforward()
-        if self.generator is None:
-            raise RotorAvcError(f"{self.get_name()}: {sc.machine.config.source} has no "
-                                "`simulation.feedforward` -- fix: use a feed-forward scenario")
+        self.generator = self.block
         self.generator.reset()
-        plant = sc.machine.plant
-        ns = self.p["namespace"]
+        plant = self.scenario.machine.plant
+        ns = self.namespace
         self.outputs = []
         for act_id in self.generator.actuator_ids:
             force = m.Force(act_id, plant.actuator(act_id).axis)
@@ -53,20 +49,16 @@ class SynchronousController(Node):
                 act_id, "actuator_force", ns), m.LOCKSTEP_QOS), force))
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
                                  m.LOCKSTEP_QOS, raw=True)
-        self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
-        self.create_timer(1.0, self._publish_diagnostics)
-        self.timing = LoopTiming(None)
-        self.last_stamp = -1
         self.forces = [0.0] * len(self.outputs)
-        self.faults = 0
-        self.last_fault = ""
+
+    def build(self, scenario):
+        return scenario.feedforward()
 
     def _on_joint(self, data: bytes) -> None:
-        try:
-            stamp, position, velocity = m.joint_state(data)
-        except m.MessageError as exc:
-            self._fault(f"rotor/joint_state ignored: {exc}")
+        joint = self.joint(data)
+        if joint is None:
             return
+        stamp, position, velocity = joint
         angle = position[0] if position else math.nan
         speed = velocity[0] if velocity else math.nan
         if stamp > self.last_stamp:
@@ -74,7 +66,7 @@ class SynchronousController(Node):
             if math.isfinite(angle) and math.isfinite(speed):
                 self.forces = self.generator.step(angle, speed).tolist()
             else:
-                self._fault(f"non-finite shaft angle/speed at {stamp} ns: forces held")
+                self.fault(f"non-finite shaft angle/speed at {stamp} ns: forces held")
             self.last_stamp = stamp
             self.timing.stop()
         elif stamp < self.last_stamp:
@@ -82,17 +74,9 @@ class SynchronousController(Node):
         for (pub, force), value in zip(self.outputs, self.forces):
             pub.publish(force.fill(stamp, value))
 
-    def _fault(self, text: str) -> None:
-        self.faults += 1
-        self.last_fault = text
-        self.get_logger().warning(text)
-
-    def _publish_diagnostics(self) -> None:
-        stats = self.timing.summary()
-        stats.update({"faults": self.faults, "in_table": self.generator.in_range})
+    def status(self) -> tuple[str, str, dict]:
         level, text = ("warn", self.last_fault) if self.last_fault else ("ok", "1x feed-forward")
-        self.pub_diag.publish(m.diagnostics(max(self.last_stamp, 0), [
-            (f"{self.get_name()}: feed-forward", level, text, stats), m.published_status(self)]))
+        return level, text, {"in_table": self.generator.in_range}
 
 
 def main(args=None) -> int:
