@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from .closed_loop.loop import ClosedLoop
 from .config import Section, load_config
-from .control.spec import ContinuousController, controller_settings
+from .control.spec import ContinuousController, ControllerSettings, controller_settings
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
 from .settings import (AnalysisSettings, ControlSettings, analysis_settings, control_settings,
@@ -40,12 +40,17 @@ class Machine:
     config: Section
     plant: LinearPlant
     controllers: dict[str, ContinuousController]
+    #: each actuator's validated ``controllers:`` entry (its digital block's settings too), read
+    #: once from ``config`` when not given
+    controller_settings: dict[str, ControllerSettings] | None = None
     analysis: AnalysisSettings = field(init=False)
     control: ControlSettings = field(init=False)
     #: the controllers' and every analysis' rate (rotor_avc.settings.sample_rate_hz)
     sample_rate_hz: float = field(init=False)
 
     def __post_init__(self):
+        if self.controller_settings is None:
+            object.__setattr__(self, "controller_settings", controller_settings(self.config))
         object.__setattr__(self, "analysis", analysis_settings(self.config))
         object.__setattr__(self, "control", control_settings(self.config))
         object.__setattr__(self, "sample_rate_hz", sample_rate_hz(self.config))
@@ -80,9 +85,12 @@ def build_plant(cfg: Section) -> LinearPlant:
         raise ConfigError("(model)", str(exc), source=cfg.source) from None
 
 
-def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousController]:
+def build_controllers(cfg: Section, plant: LinearPlant,
+                      entries: dict[str, ControllerSettings] | None = None
+                      ) -> dict[str, ContinuousController]:
     """The ``G_c(s)`` of each actuator's ``controllers:`` entry (none for ``type: none``), every
-    entry validated with its digital block's keys (rotor_avc.control.spec.ControllerSettings)."""
+    entry validated with its digital block's keys (rotor_avc.control.spec.ControllerSettings;
+    ``entries``: those already read)."""
     sec = cfg.section("controllers", {})
     ids = [a.id for a in plant.actuators]
     for foot in sec.keys():
@@ -91,7 +99,7 @@ def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousC
             raise sec.error(str(foot), "unknown foot id or a foot without an actuator",
                             fix=f"controllers go on actuated feet; this machine's are: {known}")
     controllers = {}
-    for foot, entry in controller_settings(cfg).items():
+    for foot, entry in (controller_settings(cfg) if entries is None else entries).items():
         try:
             ctrl = entry.continuous()
             if ctrl is None:
@@ -111,7 +119,8 @@ def build_controllers(cfg: Section, plant: LinearPlant) -> dict[str, ContinuousC
 def machine_from_section(cfg: Section) -> Machine:
     """Validate and build a machine from a loaded config (the path every loader shares)."""
     plant = build_plant(cfg)
-    return Machine(cfg, plant, build_controllers(cfg, plant))
+    entries = controller_settings(cfg)
+    return Machine(cfg, plant, build_controllers(cfg, plant, entries), entries)
 
 
 def load_machine(name) -> Machine:

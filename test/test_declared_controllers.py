@@ -108,7 +108,8 @@ def test_block_defaults_follow_the_entry():
 def test_controller_set_in_code_without_an_entry_gets_the_block_defaults():
     machine = machine_from_config(case3(I_ACC))
     machine.controllers["DR"] = spec.p_controller(1e3, "velocity")
-    del machine.config.data["controllers"]["DL"]
+    machine = dataclasses.replace(machine, controller_settings={
+        k: v for k, v in machine.controller_settings.items() if k != "DL"})
     blocks = build_digital_controllers(machine)
     assert blocks["DL"].anti_windup == "none" and blocks["DR"].measurement_limit == 100.0
 

@@ -9,7 +9,8 @@ from rotor_avc.closed_loop.frf import unbalance_frf
 from rotor_avc.analysis.sampled_loop import SampledLoop
 from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.errors import ModelError
-from rotor_avc.machine import load_machine
+from rotor_avc.config import find_config, load_yaml
+from rotor_avc.machine import load_machine, machine_from_config
 from rotor_avc.sim.loop import control_plan, forces_from_answers, run_loop
 from rotor_avc.sim.speed_profile import constant_speed, ramp
 from rotor_avc.sim.stepper import PlantStepper
@@ -99,9 +100,10 @@ def test_start_from_rest_settles_on_the_steady_state():
 
 
 def test_extra_delay_starts_without_transient():
-    machine = load_machine("foot_mount_case3")
-    for sec in machine.config.data["controllers"].values():
+    data = load_yaml(find_config("foot_mount_case3"))
+    for sec in data["controllers"].values():
         sec["delay_samples"] = 2
+    machine = machine_from_config(data, "case 3 with two delay samples")
     ts, ctrls = closed_loop_run(machine, 30.0, 5000.0, 800)
     assert all(c.delay_samples == 2 for c in ctrls.values())
     ref = response(SampledLoop.from_blocks(machine.plant, ctrls).unbalance_frf([TWO_PI * 30.0]),

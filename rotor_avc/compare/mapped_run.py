@@ -158,10 +158,11 @@ def load_machine_and_map(config, map_path):
     return config_path, data, machine, rmap, signals
 
 
-def read_mapped_run(bag_path, config, map_path) -> RecordedRun:
+def read_mapped_run(bag_path, config, map_path, loaded=None) -> RecordedRun:
     """The recording at ``bag_path`` (.mcap or rosbag2 directory) as a RecordedRun of the
-    machine ``config`` through the mapping ``map_path`` (see the module docstring)."""
-    config_path, data, machine, rmap, signals = load_machine_and_map(config, map_path)
+    machine ``config`` through the mapping ``map_path`` (see the module docstring);
+    ``loaded``: what :func:`load_machine_and_map` gave for them, if read already."""
+    config_path, data, machine, rmap, signals = loaded or load_machine_and_map(config, map_path)
     source = str(map_path)
     mapped = {name: (sig, f"channels.{name}") for name, sig in signals.items()}
     if rmap.test_force is not None:

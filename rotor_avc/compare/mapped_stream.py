@@ -44,9 +44,10 @@ class MappedStream:
     namespace = ""
     interpolation = None
 
-    def __init__(self, bag_path, config, map_path):
+    def __init__(self, bag_path, config, map_path, loaded=None):
         self.path = Path(bag_path)
-        config_path, self.config, machine, rmap, signals = load_machine_and_map(config, map_path)
+        config_path, self.config, machine, rmap, signals = (
+            loaded or load_machine_and_map(config, map_path))
         source = str(map_path)
         with open_bag(bag_path, require_messages=True, integrity=True) as bag:
             shaft_ns, shaft_angle = read_shaft(bag, rmap.shaft, source)
@@ -133,9 +134,9 @@ def compare_mapped(bag_path, config, map_path, in_memory: bool = False) -> Compa
     """Compare a recording through a mapping: streamed (:class:`MappedStream`), or read whole
     onto a grid (:func:`~.mapped_run.read_mapped_run`) when it has a test force or with
     ``in_memory``; with :func:`~.mapped_run.band_notes`."""
-    _, _, _, rmap, _ = load_machine_and_map(config, map_path)
-    streamed = not in_memory and rmap.test_force is None
-    comp = compare_run(MappedStream(bag_path, config, map_path) if streamed
-                       else read_mapped_run(bag_path, config, map_path))
+    loaded = load_machine_and_map(config, map_path)
+    streamed = not in_memory and loaded[3].test_force is None
+    comp = compare_run(MappedStream(bag_path, config, map_path, loaded) if streamed
+                       else read_mapped_run(bag_path, config, map_path, loaded))
     comp.notes += band_notes(comp)
     return comp

@@ -51,7 +51,7 @@ from ..errors import ConfigError, ModelError
 from .discretize import DiscreteTf, check_period, discretize_controller
 from .filter import IirFilter
 from .limits import OutputLimits, check_anti_windup, limited_step
-from .spec import FEEDBACK_UNITS as UNITS, PLAUSIBLE_LIMITS, ControllerSettings, controller_settings
+from .spec import FEEDBACK_UNITS as UNITS, PLAUSIBLE_LIMITS, ControllerSettings
 SAFE_OUTPUTS = ("hold", "zero")
 #: the fault counters of a block (:attr:`DigitalController.faults`)
 FAULT_KINDS = ("implausible", "filter_reset")
@@ -238,7 +238,7 @@ def build_digital_controllers(machine, sample_period_s: float | None = None
     controller given in code without an entry gets the defaults)."""
     T, method, prewarp = sampling(machine, sample_period_s)
     feet = machine.config.section("controllers", {})
-    entries = controller_settings(machine.config)
+    entries = machine.controller_settings
     blocks = {}
     for act_id, ctrl in machine.controllers.items():
         sec = feet.section(act_id, {})
