@@ -5,8 +5,8 @@ For the balancer on a LinearPlant: the synchronous response of a channel ``c`` a
 ``y_c = Re{sum_k A_ck(Omega, Omega') u_k e^{j theta}}`` with the closed-loop responses of
 :func:`rotor_avc.closed_loop.frf.unbalance_frf` (``Omega'`` enters through the tangential ``-j Omega'``
 part of the excitation phasor, so ``A = A0 + Omega' A1`` exactly). Both are tabulated once on a
-speed grid and interpolated linearly (the grid step is chosen well below the half-power bandwidth
-of the lightest-damped mode).
+speed grid and interpolated linearly (rotor_avc.closed_loop.speed_table; the grid step is chosen
+well below the half-power bandwidth of the lightest-damped mode).
 
 Channels are named like the plant's outputs; an actuator id (``DL``) stands for the vertical
 acceleration of that machine foot (its sensor row, second derivative), the signal the balancer
@@ -21,6 +21,7 @@ import numpy as np
 
 from ..closed_loop.loop import ClosedLoop
 from ..closed_loop.frf import unbalance_frf
+from ..closed_loop.speed_table import SpeedTable
 from ..errors import ModelError
 from ..models.plant import Output
 
@@ -60,25 +61,19 @@ class InfluenceTable:
 
     def __post_init__(self):
         s = self.speeds_rad_s
-        if s.ndim != 1 or s.size < 2 or not np.allclose(np.diff(s), s[1] - s[0], rtol=1e-9):
-            raise ModelError("the influence table needs a uniform speed grid of >= 2 speeds")
-        object.__setattr__(self, "_step", float(s[1] - s[0]))
+        if s.ndim != 1 or s.size < 2:
+            raise ModelError("the influence table needs a speed grid of >= 2 speeds")
+        object.__setattr__(self, "_table", SpeedTable(s, np.stack([self.base, self.tangential])
+                                                      .swapaxes(0, 1)))
 
     def at(self, speed_rad_s: float, accel_rad_s2: float = 0.0) -> np.ndarray:
         """``(C, 2)`` coefficients (columns static, moment) at one speed; outside the grid an
         error (the balancer holds below the grid, see the estimator)."""
-        s = self.speeds_rad_s
-        if not s[0] <= speed_rad_s <= s[-1]:
-            raise ModelError(f"speed {speed_rad_s:.4g} rad/s is outside the influence table "
-                             f"[{s[0]:.4g}, {s[-1]:.4g}] rad/s")
-        i = min(int((speed_rad_s - s[0]) / self._step), s.size - 2)
-        f = (speed_rad_s - s[i]) / self._step
-        A0 = self.base[i] + f * (self.base[i + 1] - self.base[i])
-        A1 = self.tangential[i] + f * (self.tangential[i + 1] - self.tangential[i])
+        A0, A1 = self._table.at(speed_rad_s)
         return A0 + accel_rad_s2 * A1
 
     def covers(self, speed_rad_s: float) -> bool:
-        return bool(self.speeds_rad_s[0] <= speed_rad_s <= self.speeds_rad_s[-1])
+        return self._table.covers(speed_rad_s)
 
 
 def influence_table(loop: ClosedLoop, channels, speeds_rad_s) -> InfluenceTable:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..closed_loop.speed_table import SpeedTable
 from ..errors import ModelError
 
 
@@ -36,6 +37,7 @@ class InfluenceSchedule:
         if sp.ndim != 1 or sp.size < 1 or np.any(~np.isfinite(sp)) or sp[0] <= 0 \
                 or np.any(np.diff(sp) <= 0):
             raise ModelError("the influence schedule needs speeds > 0 in ascending order")
+
         shape = (sp.size, len(self.harmonics), len(self.sensors), len(self.actuators))
         if self.matrices.shape != shape or not np.all(np.isfinite(self.matrices)):
             raise ModelError(f"influence matrices must be finite with shape {shape} "
@@ -45,22 +47,22 @@ class InfluenceSchedule:
                 or not np.all(np.isfinite(self.disturbance))):
             raise ModelError("the disturbance model must be finite with shape (speeds, sensors, "
                              "excitations)")
+        object.__setattr__(self, "_matrices", SpeedTable(sp, self.matrices, clamp=True))
+        object.__setattr__(self, "_disturbance", None if self.disturbance is None
+                           else SpeedTable(sp, self.disturbance, clamp=True))
 
     def covers(self, speed_rad_s: float) -> bool:
-        return bool(self.speeds_rad_s[0] <= speed_rad_s <= self.speeds_rad_s[-1])
+        return self._matrices.covers(speed_rad_s)
 
     def at(self, speed_rad_s: float) -> np.ndarray:
         """``(H, M, N)`` interpolated at one speed (clamped to the table's ends)."""
-        return self._interpolate(self.matrices, speed_rad_s)
+        return self._matrices.at(speed_rad_s)
 
     def disturbance_at(self, speed_rad_s: float) -> np.ndarray:
         """``(M, n_excitations)`` of the disturbance model at one speed."""
-        if self.disturbance is None:
+        if self._disturbance is None:
             raise ModelError("this influence schedule has no disturbance model")
-        return self._interpolate(self.disturbance, speed_rad_s)
-
-    def _interpolate(self, table: np.ndarray, speed_rad_s: float) -> np.ndarray:
-        return interpolate(self.speeds_rad_s, table, speed_rad_s)
+        return self._disturbance.at(speed_rad_s)
 
     def perturbed(self, phase_error_deg: float = 0.0, magnitude_factor: float = 1.0
                   ) -> "InfluenceSchedule":
@@ -71,19 +73,6 @@ class InfluenceSchedule:
         factor = magnitude_factor * np.exp(1j * np.deg2rad(phase_error_deg))
         return InfluenceSchedule(self.speeds_rad_s, self.harmonics, self.matrices * factor,
                                  self.sensors, self.actuators, self.disturbance, self.excitations)
-
-
-def interpolate(speeds_rad_s: np.ndarray, table: np.ndarray, speed_rad_s: float) -> np.ndarray:
-    """``table[s]`` (at ``speeds_rad_s[s]``, ascending) linearly interpolated at one speed,
-    clamped to the table's ends."""
-    sp = speeds_rad_s
-    if speed_rad_s <= sp[0]:
-        return table[0]
-    if speed_rad_s >= sp[-1]:
-        return table[-1]
-    k = int(np.searchsorted(sp, speed_rad_s))
-    w = (speed_rad_s - sp[k - 1]) / (sp[k] - sp[k - 1])
-    return (1 - w) * table[k - 1] + w * table[k]
 
 
 def schedule_speeds(start_rad_s: float, stop_rad_s: float, rel_step: float) -> np.ndarray:

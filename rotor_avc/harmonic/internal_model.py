@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ..closed_loop.speed_table import interpolate
 from ..errors import ModelError
-from .influence import interpolate
 
 #: the LQ force weight relative to the largest one-step sensor response per unit force
 DEFAULT_EFFORT = 1e-2
