@@ -23,6 +23,7 @@ from rotor_avc.compare.comparison import model_loops
 from rotor_avc.config import find_config, load_yaml
 from rotor_avc.machine import machine_from_config
 
+from browser_check import check_report
 from test_calibrate import assert_recovered
 
 #: (node, direction, model signal, UFF data type) of each response; node 12 on a reversed axis
@@ -108,6 +109,8 @@ def test_measured_frfs_calibrate_the_machine(modal_test, tmp_path):
     assert row["configured"]["verdict"] is None
     assert min(row["calibrated"]["frac_h1"].values()) > 0.999
     assert row["calibrated"]["chi2"] < 2.0 < row["configured"]["chi2"]
+    # H1 magnitude and phase per response, the sensitivity and correlation matrices
+    assert check_report(tmp_path / "cal" / "index.html") == 2 * len(RESPONSES) + 2
 
 
 @pytest.mark.parametrize("change, field", [({"units_code": 2}, "standstill.uff"),
