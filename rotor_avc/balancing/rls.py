@@ -17,6 +17,11 @@
   left untouched and counted in ``n_held``. An update that would produce non-finite values is
   rolled back the same way, so the estimate never diverges.
 
+:class:`RlsFilter` is real or complex (``theta0`` complex) and estimates a vector ``theta`` (n,)
+or a matrix (n, m): ``m`` regressions sharing their regressor rows and one covariance (the
+harmonic controller's influence correction, rotor_avc.harmonic.identification); transposes are
+conjugate transposes, so the real case is the textbook one.
+
 :class:`RigidRotorRls` is the paper's estimator: two independent filters on the regression of
 :mod:`.regression` (``phi_1 = [b1, b2]``, ``phi_2 = [b3, b4]``).
 """
@@ -35,6 +40,8 @@ class RlsFilter:
     """RLS with Joseph-form covariance update, forgetting factor and a safe hold."""
 
     def __init__(self, n: int, p0, forgetting: float = 1.0, theta0=None):
+        theta0 = np.zeros(n) if theta0 is None else np.asarray(theta0)
+        self.dtype = complex if np.iscomplexobj(theta0) else float
         p0 = np.asarray(p0, dtype=float)
         P0 = p0 * np.eye(n) if p0.ndim == 0 else np.diag(p0) if p0.ndim == 1 else p0
         if P0.shape != (n, n) or not np.all(np.isfinite(P0)):
@@ -43,10 +50,12 @@ class RlsFilter:
             raise ModelError("initial covariance must be symmetric positive definite")
         if not (0 < forgetting <= 1):
             raise ModelError(f"forgetting factor must be in (0, 1] (got {forgetting})")
+        if theta0.shape[:1] != (n,) or theta0.ndim > 2:
+            raise ModelError(f"theta0 must have {n} rows (got shape {theta0.shape})")
         self.n = n
-        self.P0 = P0
+        self.P0 = P0.astype(self.dtype)
         self.forgetting = float(forgetting)
-        self.theta0 = np.zeros(n) if theta0 is None else np.asarray(theta0, dtype=float)
+        self.theta0 = theta0.astype(self.dtype)
         self._eye = np.eye(n)
         self.reset()
 
@@ -69,30 +78,33 @@ class RlsFilter:
         return self.noise_var * self.P
 
     def update(self, X, y) -> bool:
-        """Take in one sample: rows ``X`` (m, n) or (n,), outputs ``y`` (m,) or scalar.
+        """Take in one sample: rows ``X`` (r, n) or (n,), outputs ``y`` (r,) or scalar -- or,
+        for a matrix ``theta`` (n, m), (r, m) or (m,).
 
         Returns False (and holds) for non-finite input or rows without information."""
-        X = np.asarray(X, dtype=float).reshape(-1, self.n)
-        y = np.asarray(y, dtype=float).reshape(-1)
-        if y.size != X.shape[0] or not math.isfinite(X.sum() + y.sum()) or not X.any():
+        X = np.asarray(X, dtype=self.dtype).reshape(-1, self.n)
+        y = np.asarray(y, dtype=self.dtype).reshape((-1,) + self.theta.shape[1:])
+        if (y.shape[0] != X.shape[0] or not np.all(np.isfinite(X)) or not np.all(np.isfinite(y))
+                or not X.any()):
             self.n_held += 1
             return False
         keep = X.any(axis=1)
         X, y = X[keep], y[keep]
         lam = self.forgetting
         P = self.P / lam
-        # all rows at once: S = I + X P X^T, K = P X^T S^-1 (the same as row by row)
-        PXt = P @ X.T
-        S_inv = np.linalg.inv(np.eye(y.size) + X @ PXt)
+        # all rows at once: S = I + X P X^H, K = P X^H S^-1 (the same as row by row)
+        PXt = P @ X.conj().T
+        S_inv = np.linalg.inv(np.eye(y.shape[0]) + X @ PXt)
         K = PXt @ S_inv
         e = y - X @ self.theta
         theta = self.theta + K @ e
         A = self._eye - K @ X
-        P = A @ P @ A.T + K @ K.T                       # Joseph form
-        P = 0.5 * (P + P.T)
-        num = lam * self._res_num + float(e @ S_inv @ e)
+        P = A @ P @ A.conj().T + K @ K.conj().T         # Joseph form
+        P = 0.5 * (P + P.conj().T)
+        num = lam * self._res_num + float(np.real(np.trace(np.atleast_2d(
+            (e.conj().T @ S_inv @ e)))))
         den = lam * self._res_den + y.size
-        if not math.isfinite(theta.sum() + P.sum() + num):
+        if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(P)) and math.isfinite(num)):
             self.n_held += 1
             return False
         self.theta, self.P, self._res_num, self._res_den = theta, P, num, den

@@ -8,13 +8,16 @@ normalised (``phi = dA / |dA|``, ``y / |dA|``), so the covariance is dimensionle
 The quasi-steady relation fails while the plant still rings from earlier changes; the small
 changes of a converging loop are mostly such transients, so only changes above a fraction
 ``min_rel_change`` of the applied phasors are learnt from (measured on Werner 2021 at a resonance:
-without it the estimate drifts and the loop stalls near -15 dB). Standard RLS
-with forgetting ``lambda`` and one covariance shared by all sensor rows::
+without it the estimate drifts and the loop stalls near -15 dB). RLS with forgetting ``lambda``
+and one covariance shared by all sensor rows (Ljung, *System Identification*, 11.2): the
+regression ``y^T = phi^T D^T`` run by the balancer's filter
+(:class:`rotor_avc.balancing.rls.RlsFilter`, complex, ``D^T`` its (N, M) parameter, Joseph-form
+covariance update)::
 
-    eps = y - D phi,     k = P phi / (lambda + phi^H P phi),
-    D  <- D + eps k^H,   P  <- (P - k phi^H P) / lambda
+    eps = y - D phi,     k = P phi^* / (lambda + phi^T P phi^*),
+    D^T <- D^T + k eps^T,   P  <- (I - k phi^T) P (I - k phi^T)^H / lambda + k k^H
 
-(Ljung, *System Identification*, 11.2). Changes smaller than ``min_change`` are not used (no
+Changes smaller than ``min_change`` are not used (no
 covariance wind-up without excitation). ``residual`` is the a-priori prediction error relative
 to ``|y|``: near 0 when the estimate predicts the change, >= 1 when it does not (a poor estimate).
 """
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..balancing.rls import RlsFilter
 from ..errors import ModelError
 
 #: initial covariance of the normalised regression: the first change outweighs the prior
@@ -47,10 +51,35 @@ class InfluenceRls:
         self.reset()
 
     def reset(self) -> None:
-        self.correction = np.zeros(self.shape, complex)
-        self.covariance = INITIAL_COVARIANCE * np.eye(self.shape[1], dtype=complex)
+        m, n = self.shape
+        self.filter = RlsFilter(n, INITIAL_COVARIANCE, self.forgetting,
+                                theta0=np.zeros((n, m), complex))
         self.residual = 0.0
-        self.n_updates = 0
+
+    @property
+    def correction(self) -> np.ndarray:
+        """``D`` (M, N)."""
+        return self.filter.theta.T
+
+    @correction.setter
+    def correction(self, value: np.ndarray) -> None:
+        self.filter.theta = np.asarray(value, complex).T.copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        return self.filter.P
+
+    @covariance.setter
+    def covariance(self, value: np.ndarray) -> None:
+        self.filter.P = np.asarray(value, complex).copy()
+
+    @property
+    def n_updates(self) -> int:
+        return self.filter.n_updates
+
+    @n_updates.setter
+    def n_updates(self, value: int) -> None:
+        self.filter.n_updates = int(value)
 
     def update(self, d_applied: np.ndarray, d_error: np.ndarray, prior: np.ndarray,
                applied_norm: float = 0.0) -> bool:
@@ -64,11 +93,4 @@ class InfluenceRls:
         y = (d_error - prior @ d_applied) / scale
         eps = y - self.correction @ phi
         self.residual = float(np.linalg.norm(eps) / max(np.linalg.norm(d_error) / scale, 1e-300))
-        P = self.covariance
-        Pphi = P @ phi
-        k = Pphi / (self.forgetting + np.vdot(phi, Pphi).real)
-        self.correction = self.correction + np.outer(eps, k.conj())
-        P = (P - np.outer(k, phi.conj() @ P)) / self.forgetting
-        self.covariance = 0.5 * (P + P.conj().T)
-        self.n_updates += 1
-        return True
+        return self.filter.update(phi[None, :], y[None, :])
