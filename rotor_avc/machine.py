@@ -5,7 +5,8 @@ import importlib
 from dataclasses import dataclass, field
 
 from .closed_loop.loop import ClosedLoop
-from .config import Section, load_config
+from .config import load_config
+from .section import Section
 from .control.spec import ContinuousController, ControllerSettings, controller_settings
 from .errors import ConfigError, ModelError
 from .models.plant import LinearPlant
@@ -85,12 +86,9 @@ def build_plant(cfg: Section) -> LinearPlant:
         raise ConfigError("(model)", str(exc), source=cfg.source) from None
 
 
-def build_controllers(cfg: Section, plant: LinearPlant,
-                      entries: dict[str, ControllerSettings] | None = None
-                      ) -> dict[str, ContinuousController]:
-    """The ``G_c(s)`` of each actuator's ``controllers:`` entry (none for ``type: none``), every
-    entry validated with its digital block's keys (rotor_avc.control.spec.ControllerSettings;
-    ``entries``: those already read)."""
+def controller_entries(cfg: Section, plant: LinearPlant) -> dict[str, ControllerSettings]:
+    """Each actuator's ``controllers:`` entry, validated (rotor_avc.control.spec
+    .ControllerSettings); an entry for anything but an actuated foot is refused first."""
     sec = cfg.section("controllers", {})
     ids = [a.id for a in plant.actuators]
     for foot in sec.keys():
@@ -98,8 +96,17 @@ def build_controllers(cfg: Section, plant: LinearPlant,
             known = ", ".join(ids) if ids else "none (no foot carries an actuator)"
             raise sec.error(str(foot), "unknown foot id or a foot without an actuator",
                             fix=f"controllers go on actuated feet; this machine's are: {known}")
+    return controller_settings(cfg)
+
+
+def build_controllers(cfg: Section, plant: LinearPlant,
+                      entries: dict[str, ControllerSettings] | None = None
+                      ) -> dict[str, ContinuousController]:
+    """The ``G_c(s)`` of each actuator's ``controllers:`` entry (none for ``type: none``)
+    (``entries``: :func:`controller_entries`, if read already)."""
+    sec = cfg.section("controllers", {})
     controllers = {}
-    for foot, entry in (controller_settings(cfg) if entries is None else entries).items():
+    for foot, entry in (controller_entries(cfg, plant) if entries is None else entries).items():
         try:
             ctrl = entry.continuous()
             if ctrl is None:
@@ -119,7 +126,7 @@ def build_controllers(cfg: Section, plant: LinearPlant,
 def machine_from_section(cfg: Section) -> Machine:
     """Validate and build a machine from a loaded config (the path every loader shares)."""
     plant = build_plant(cfg)
-    entries = controller_settings(cfg)
+    entries = controller_entries(cfg, plant)
     return Machine(cfg, plant, build_controllers(cfg, plant, entries), entries)
 
 

@@ -16,7 +16,7 @@ import types
 import typing
 from dataclasses import dataclass, field
 
-from .config import Section
+from .section import Section
 
 DEFAULT_SAMPLE_RATE_HZ = 5000.0
 POLE_METHODS = ("worst_case", "whirl_iteration")

@@ -125,3 +125,32 @@ def test_runtime_dependencies_are_what_runtime_code_imports():
     extras = ast.literal_eval(next(k.value for k in call.keywords if k.arg == "extras_require"))
     cluster = {re.split(r"[<>=\[ ]", e)[0] for e in extras["cluster"]}
     assert {distribution.get(m, m) for m in third_party} == names | cluster
+
+
+#: the rooms that compute: they read configurations through rotor_avc.section, never YAML
+COMPUTING_ROOMS = ("settings", "blocks", "models", "model_config", "control", "closed_loop",
+                   "sim", "balancing", "studies", "analysis", "harmonic")
+YAML_LAYER = ("yaml", "rotor_avc.yaml_reading", "rotor_avc.config")
+
+
+def test_the_computing_rooms_never_import_the_yaml_layer():
+    """Configuration files are loaded in the composition (rotor_avc.config, machine, scenario
+    and the commands); the rooms that compute take the loaded mapping as a Section, typed
+    settings or numbers."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        module = module_name(path)
+        if room(module) not in COMPUTING_ROOMS:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = module.rsplit(".", node.level)[0] if node.level else ""
+                mod = (base + "." + node.module if node.level and node.module else
+                       base if node.level else node.module)
+                names = [mod] + [f"{mod}.{a.name}" for a in node.names]
+            found += [f"{module}: {n}" for n in names
+                      if any(n == y or n.startswith(y + ".") for y in YAML_LAYER)]
+    assert not found, "the YAML layer imported by a computing room:\n" + "\n".join(found)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..closed_loop.loop import ClosedLoop
-from ..config import Section
+from ..section import Section
 from ..control.synchronous import SynchronousForceGenerator
 from ..errors import ModelError
 from ..models.active_bearing import COORDS, PLANES, plane_mask

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.optimize
 from scipy.signal import find_peaks
 
-from ..config import Section
+from ..section import Section
 from ..control.spec import CONTROLLER_KEYS, ContinuousController, controller_from_config
 from ..errors import ModelError
 from ..models.plant import LinearPlant

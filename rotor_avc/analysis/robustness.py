@@ -23,7 +23,7 @@ from statistics import NormalDist
 import numpy as np
 
 from ..closed_loop.frf import unbalance_frf
-from ..config import Section
+from ..section import Section
 from ..errors import ConfigError
 from ..machine import machine_from_section
 from ..studies.overrides import with_overrides

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..errors import ConfigError
 from ..machine import MODELS, Machine, machine_from_section
 from ..model_config.roller_bearing_rotor import StudySettings

@@ -18,11 +18,11 @@ run-up scenario, so the command line, the tests and the balancer node share one 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..errors import ModelError
 from ..machine import Machine, model_supports, models_supporting
 from ..model_config.rigid_rotor import rotor_from_config

@@ -34,7 +34,8 @@ from ..analysis.frf_estimate import h1_random_error
 from ..analysis.transfer import quantity
 from ..compare.checks import MIN_COHERENCE
 from ..compare.mapped_run import model_signals
-from ..config import Section, load_yaml
+from ..config import load_yaml
+from ..section import Section
 from ..errors import ConfigError
 from ..settings import read_settings, setting
 from .targets import BandPoints, Target

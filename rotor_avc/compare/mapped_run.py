@@ -45,7 +45,7 @@ from ..errors import ConfigError, ModelError
 from ..machine import machine_from_config
 from ..resources import FLOAT_BYTES, check_memory
 from .checks import MIN_COHERENCE, TOL_OFF_RESONANCE_DB
-from .comparison import Comparison, compare_run
+from .comparison import Comparison
 from .recorded_run import RecordedRun
 from .recording_map import DEFAULT_ANGLE_FIELD, read_map
 from .recording_scenario import describe_assumptions, recording_scenario

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..config import Section, load_yaml
+from ..config import load_yaml
+from ..section import Section
 from ..settings import read_settings, setting
 
 STAMPS = ("header", "log")

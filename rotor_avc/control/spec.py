@@ -22,7 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..errors import ModelError
 from ..settings import read_part, read_settings, setting
 from .limits import ANTI_WINDUP

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from ..config import Section
+from ..section import Section
 from ..errors import ModelError
 from ..settings import read_settings, setting
 from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings

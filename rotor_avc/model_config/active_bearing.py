@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..config import Section
+from ..section import Section
 from ..models import active_bearing as model
 from ..models.active_bearing import BEARINGS, PLANES
 from ..models.piezo import PiezoStack

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..config import Section
+from ..section import Section
 from ..models import foot_mount_3d as model
 from ..models.foot_mount_3d import MOUNTS
 from ..models.plant import LinearPlant

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..models import rigid_rotor as model
 from ..models.plant import LinearPlant
 from ..settings import damping_floor_rad_s, read_part, setting

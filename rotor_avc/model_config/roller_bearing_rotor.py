@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from ..config import Section
+from ..section import Section
 from ..models import roller_bearing_rotor as model
 from ..models.plant import LinearPlant
 from ..settings import damping_floor_rad_s, read_part, setting

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..errors import ModelError
 from ..models import sleeve_bearing_motor as model
 from ..models.journal_bearing import JournalBearing, Oil

@@ -26,7 +26,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..config import Section
+from ..section import Section
 from ..errors import ModelError
 from ..settings import read_settings, setting
 

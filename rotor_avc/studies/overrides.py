@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import copy
 
-from ..config import Section
+from ..section import Section
 from ..errors import ConfigError
 
 

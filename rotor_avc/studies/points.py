@@ -22,9 +22,8 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-import yaml
 
-from ..config import Section
+from ..section import Section
 from ..errors import ConfigError
 from ..resources import check_memory
 from .overrides import get_path, with_overrides
@@ -91,9 +90,10 @@ def parse_vary(text: str, field: str = "--vary") -> Vary:
     paths, scale, rhs = _split_axis(text, field, fix)
     if rhs.startswith("["):
         try:
-            values = yaml.safe_load(rhs)
-            values = np.array([float(v) for v in values])
-        except (yaml.YAMLError, TypeError, ValueError):
+            if not rhs.endswith("]"):
+                raise ValueError
+            values = np.array([float(v) for v in rhs[1:-1].split(",")])
+        except ValueError:
             raise ConfigError(field, f"{rhs!r} is not a list of numbers", fix=fix) from None
     else:
         parts = rhs.split(":")
