@@ -37,6 +37,14 @@ def test_amplification_factor_of_a_single_mode(zeta):
     assert c.separation_margin_pct == pytest.approx(100 * (60.0 - c.speed_hz) / 60.0)
 
 
+def test_the_critically_damped_line_is_at_af_2_5():
+    """No margin below AF = 2.5, the formula's from there (a line moved to 3 or 3.5 fails)."""
+    assert required_margin_pct(2.49, "above") == 0.0 and required_margin_pct(2.49, "below") == 0.0
+    assert required_margin_pct(2.6, "below") == pytest.approx(17 * (1 - 1 / 1.1))
+    assert required_margin_pct(2.6, "above") == pytest.approx(10 + 17 * (1 - 1 / 1.1))
+    assert required_margin_pct(3.0, "below") == pytest.approx(17 / 3)
+
+
 def test_required_margins_are_the_standards():
     assert required_margin_pct(2.0, "below") == 0.0
     assert required_margin_pct(5.0, "below") == pytest.approx(17 * (1 - 1 / 3.5))

@@ -66,6 +66,17 @@ def test_a_point_depends_on_seed_and_index_only(case3):
     assert len({tuple(v.values()) for v in forward}) == 50
 
 
+def test_the_seed_derivation_is_the_documented_one(case3):
+    """Point ``i`` draws, in axis order, from ``default_rng(SeedSequence(seed, spawn_key=(i,)))``
+    (the module's stated derivation: a study's points can be reproduced without rotor_avc)."""
+    sample = Sample([parse_sample(f"{KZ}*=normal(1, 0.1)"), parse_sample(f"{MASS}=uniform(7e3, 8e3)"),
+                     parse_sample("foundation.tan_delta=lognormal(-3.2, 0.2)")], 5, 2026, case3)
+    for i in (0, 1, 4):
+        rng = np.random.default_rng(np.random.SeedSequence(2026, spawn_key=(i,)))
+        expected = [rng.normal(1.0, 0.1), rng.uniform(7e3, 8e3), rng.lognormal(-3.2, 0.2)]
+        assert list(sample.point(i).values.values()) == expected, i
+
+
 def test_grid_numbers_points_like_ndindex(case3):
     grid = Grid([parse_vary(f"{KZ}*=0.5:1.5:3"), parse_vary(f"{MASS}=[7000, 7500]")], case3)
     expected = [(0.5 * 1.44e9 * (1 + k), m) for k in range(3) for m in (7000.0, 7500.0)]
