@@ -1,10 +1,15 @@
 """Shared checks of the model families' declarations (test_declared_*.py): every key of every
 shipped config has its reference row, and MODEL_KEYS are the declared fields."""
+import copy
 import dataclasses
 import re
 from pathlib import Path
 
+import pytest
+
 from rotor_avc.config import load_yaml
+from rotor_avc.errors import ConfigError
+from rotor_avc.machine import machine_from_config
 from rotor_avc.settings import _rows
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,3 +51,35 @@ def assert_every_shipped_key_has_a_reference_row(module, model: str) -> None:
             assert any(p.match(leaf) for p in patterns), f"{name}: {leaf} has no reference row"
     for path, kind, default, what in _rows(module.MODEL_SETTINGS, ""):
         assert what, f"{path} has no meaning"
+
+
+def loaded(config: str) -> dict:
+    return copy.deepcopy(load_yaml(ROOT / "config" / f"{config}.yaml"))
+
+
+def parent(data: dict, path: str) -> tuple[dict, str]:
+    """The mapping holding the last key of the dotted ``path`` (each mapping on the way copied:
+    a YAML alias may share one mapping between several places), and that key."""
+    *parents, key = path.split(".")
+    for k in parents:
+        data[k] = dict(data[k])
+        data = data[k]
+    return data, key
+
+
+def changed(config: str, path: str, value) -> dict:
+    """The config with the value at ``path`` replaced (removed for ``None``)."""
+    data = loaded(config)
+    sub, key = parent(data, path)
+    if value is None:
+        del sub[key]
+    else:
+        sub[key] = value
+    return data
+
+
+def refused(data: dict) -> str:
+    """The one-line error of building a machine of ``data``."""
+    with pytest.raises(ConfigError) as info:
+        machine_from_config(data, "bad.yaml")
+    return str(info.value)

@@ -2,11 +2,10 @@
 roller_bearing_rotor`` (Werner 2017) and ``model: active_bearing`` (Sci. Rep. 2023): misspelt keys
 answered with the closest one, bounds refused with field and unit, cross-field rules, and a
 reference row for every key the shipped configs use."""
-import copy
-
 import pytest
 from declared_models import (ROOT, assert_every_shipped_key_has_a_reference_row,
-                             assert_model_keys_are_the_declared_fields)
+                             assert_model_keys_are_the_declared_fields, changed, loaded,
+                             parent, refused)
 
 from rotor_avc.config import Section, load_yaml
 from rotor_avc.errors import ConfigError
@@ -16,37 +15,6 @@ from rotor_avc.model_config import active_bearing, roller_bearing_rotor, sleeve_
 MODULES = {"sleeve_bearing_motor": sleeve_bearing_motor,
            "roller_bearing_rotor": roller_bearing_rotor, "active_bearing": active_bearing}
 SLEEVE, ROLLER, ACTIVE = "sleeve_bearing_motor", "roller_bearing_stability", "active_bearing"
-
-
-def parent(data: dict, path: str) -> tuple[dict, str]:
-    """The mapping holding the last key of the dotted ``path`` (each mapping on the way copied:
-    the YAML aliases one bearing plane four times), and that key."""
-    *parents, key = path.split(".")
-    for k in parents:
-        data[k] = dict(data[k])
-        data = data[k]
-    return data, key
-
-
-def loaded(config: str) -> dict:
-    return copy.deepcopy(load_yaml(ROOT / "config" / f"{config}.yaml"))
-
-
-def changed(config: str, path: str, value) -> dict:
-    """The config with the value at ``path`` replaced (removed for ``None``)."""
-    data = loaded(config)
-    sub, key = parent(data, path)
-    if value is None:
-        del sub[key]
-    else:
-        sub[key] = value
-    return data
-
-
-def refused(data: dict) -> str:
-    with pytest.raises(ConfigError) as info:
-        machine_from_config(data, "bad.yaml")
-    return str(info.value)
 
 
 @pytest.mark.parametrize("config,path,wrong,right", [

@@ -1,43 +1,14 @@
 """The declared keys of ``model: foot_mount_3d`` (Werner 2021) and ``model: rigid_rotor``
 (Zhou & Shi 2001): misspelt keys answered with the closest one, bounds refused with field and
 unit, cross-field rules, and a reference row for every key the shipped configs use."""
-import copy
-
 import pytest
-from declared_models import (ROOT, assert_every_shipped_key_has_a_reference_row,
-                             assert_model_keys_are_the_declared_fields)
+from declared_models import (assert_every_shipped_key_has_a_reference_row,
+                             assert_model_keys_are_the_declared_fields, changed, loaded,
+                             parent, refused)
 
-from rotor_avc.config import load_yaml
-from rotor_avc.errors import ConfigError
-from rotor_avc.machine import machine_from_config
 from rotor_avc.model_config import foot_mount_3d, rigid_rotor
 
 MODULES = {"foot_mount_3d": foot_mount_3d, "rigid_rotor": rigid_rotor}
-
-
-def loaded(config: str) -> dict:
-    return copy.deepcopy(load_yaml(ROOT / "config" / f"{config}.yaml"))
-
-
-def parent(data: dict, path: str) -> tuple[dict, str]:
-    """The mapping holding the last key of the dotted ``path``, and that key."""
-    *parents, key = path.split(".")
-    for k in parents:
-        data = data[k]
-    return data, key
-
-
-def changed(config: str, path: str, value) -> dict:
-    data = loaded(config)
-    sub, key = parent(data, path)
-    sub[key] = value
-    return data
-
-
-def refused(data: dict) -> str:
-    with pytest.raises(ConfigError) as info:
-        machine_from_config(data, "bad.yaml")
-    return str(info.value)
 
 
 @pytest.mark.parametrize("config,path,wrong,right", [

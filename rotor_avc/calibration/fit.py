@@ -63,7 +63,6 @@ class Screen:
     reasons: dict[int, str]
     #: change of the weighted residual, in standard deviations, per 100 % change
     sensitivity: np.ndarray
-    condition: float
 
 
 @dataclass
@@ -163,7 +162,7 @@ def screen(J: np.ndarray, z: np.ndarray, labels: list[str], s2: float = 1.0) -> 
         reasons[free[worst]] = (f"poorly determined: standard deviation {rel[worst]:.0%} of the "
                                 f"value (> {MAX_RELATIVE_STD:.0%})")
         free.pop(worst)
-    return Screen(free, reasons, sens, _condition(J[:, free]) if free else float("inf"))
+    return Screen(free, reasons, sens)
 
 
 class _Cached:
