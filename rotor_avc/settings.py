@@ -26,6 +26,7 @@ DAMPING_RULES = ("speed", "whirl")
 INITIAL_STATES = ("rest", "steady_state")
 FEEDFORWARD_METHODS = ("paper", "exact")
 TEST_SIGNAL_KINDS = ("white", "chirp")
+ISO_SUPPORTS = ("rigid", "flexible")
 #: relative accuracy of the variable-speed plant (rotor_avc.sim.propagator)
 DEFAULT_GRID_TOL = 1e-5
 
@@ -130,6 +131,20 @@ class GainStudySettings:
 
 
 @dataclass(frozen=True)
+class Iso20816Settings:
+    """ISO 20816-3:2022 Annex A (Tables A.1, A.2): the evaluation zones of `compare` and `runup`."""
+
+    group: int = setting(2, "1: large machines (300 kW .. 50 MW, shaft height >= 315 mm), 2: "
+                         "medium (15 .. 300 kW, 160 .. 315 mm)", minimum=1, maximum=2)
+    support: str = setting("rigid", "`rigid`: lowest natural frequency of machine and support in "
+                           "the measuring direction >= 1.25 x running speed, else `flexible`",
+                           choices=ISO_SUPPORTS)
+    channels: tuple[str, ...] | None = setting(None, "bearing-housing outputs (velocity, "
+                                               "acceleration or displacement; default: the "
+                                               "plant's `bearing*`/`housing*` outputs)")
+
+
+@dataclass(frozen=True)
 class AnalysisSettings:
     """``analysis:`` of a machine config: the linear analyses' settings."""
 
@@ -150,6 +165,7 @@ class AnalysisSettings:
                                                       "pole_method whirl_iteration")
     stability: ThresholdSettings = setting(ThresholdSettings, "threshold of stability")
     study: GainStudySettings = setting(GainStudySettings, "gain studies")
+    iso20816: Iso20816Settings = setting(Iso20816Settings, "ISO 20816-3 zones of the housings")
 
     def check(self, sec: Section) -> None:
         if self.cases_rpm is not None and min(self.cases_rpm) <= 0:

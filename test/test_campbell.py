@@ -83,8 +83,10 @@ def test_damping_ratio_and_log_decrement_of_loss_factor_damping():
 def test_campbell_agrees_with_the_poles_command(capsys, config, grid, speeds_hz):
     assert main(["campbell", config, "--speed-hz", grid, "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data) == {"speed_hz", "modes", "critical_speeds"}
-    assert all(set(m) == {"label", "freq_hz", "damping_ratio"} for m in data["modes"])
+    assert set(data) == {"speed_hz", "modes", "critical_speeds", "reference_speed_hz",
+                         "damping_rule"}
+    assert all(set(m) == {"label", "freq_hz", "damping_ratio", "whirl", "shape"}
+               for m in data["modes"])
     assert all(set(c) == {"mode", "order", "speed_hz"} for c in data["critical_speeds"])
     for speed in speeds_hz:
         i = int(np.argmin(np.abs(np.array(data["speed_hz"]) - speed)))
@@ -136,7 +138,8 @@ def test_campbell_report_renders_in_a_browser(tmp_path):
     out = tmp_path / "c"
     assert main(["campbell", "roller_bearing_stability", "--speed-hz", "300:500:9",
                  "--out", str(out), "--speed-unit", "rpm"]) == 0
-    assert check_report(out / "index.html") == 2
+    shapes = (out / "index.html").read_text().count('<div class="plot" id="shape')
+    assert shapes >= 2 and check_report(out / "index.html") == 2 + shapes
 
 
 def test_sampled_loop_modes_approach_the_continuous_ones():

@@ -21,6 +21,10 @@ API RP 684 (2nd ed., 2005, section 2.8 / SP6.8.2 of API 617 8th ed.):
   - a critical speed with ``AF >= 2.5`` inside the operating range fails.
 
 For a single-degree-of-freedom oscillator ``AF`` is close to ``1 / (2 zeta)`` (API 684 Fig. 2-6).
+
+The overall verdict (:func:`overall_verdict`) counts every row with a verdict as one requirement:
+met when it passes or is critically damped, not met when it fails; an undetermined row (the
+half-power points beyond the record) is listed apart, not counted.
 """
 from __future__ import annotations
 
@@ -130,6 +134,52 @@ def check_response(speed_hz, amplitude, operating_hz, min_prominence: float = 0.
                          f"(got {n_min:g} .. {n_max:g} Hz)")
     peaks, _ = scipy.signal.find_peaks(amp, prominence=min_prominence * amp.max())
     return [check_critical(speed, amp, int(i), (n_min, n_max)) for i in peaks]
+
+
+def failure_reason(c: CriticalSpeedCheck) -> str:
+    """Why a failing row fails: inside the operating range, or its margin below the required."""
+    if c.separation_margin_pct is None:
+        return "inside the operating range"
+    return f"SM {c.separation_margin_pct:.3g} % < required {c.required_margin_pct:.3g} %"
+
+
+def overall_verdict(checks: dict[str, list[CriticalSpeedCheck]]) -> dict:
+    """``{"verdict": "PASS" | "FAIL", "requirements", "met", "failed": [row phrases],
+    "undetermined": [row phrases]}`` over the rows of every response (module docstring)."""
+    failed, undetermined, counted = [], [], 0
+    for name, rows in checks.items():
+        for c in rows:
+            where = f"{name} at {c.speed_hz:.4g} Hz"
+            if c.verdict == "undetermined":
+                undetermined.append(f"{where}: half-power points beyond the speed range")
+                continue
+            counted += 1
+            if c.verdict == "fail":
+                failed.append(f"{where} (AF {c.amplification_factor:.3g}): {failure_reason(c)}")
+    return {"verdict": "FAIL" if failed else "PASS", "requirements": counted,
+            "met": counted - len(failed), "failed": failed, "undetermined": undetermined}
+
+
+def verdict_line(verdict: dict) -> str:
+    """One line: ``API 684: PASS (n of n requirements met)`` or ``API 684: FAIL: <rows>``."""
+    met = f"{verdict['met']} of {verdict['requirements']} requirements met"
+    line = (f"API 684: FAIL ({met}): " + "; ".join(verdict["failed"]) if verdict["failed"]
+            else f"API 684: PASS ({met})")
+    if verdict["undetermined"]:
+        line += (f"; {len(verdict['undetermined'])} row(s) undetermined (extend the speed "
+                 "range): " + "; ".join(verdict["undetermined"]))
+    return line
+
+
+def damping_rule(floor_hz: float, speed_hz) -> str:
+    """The damping of the model's unbalance response these checks read (DESIGN.md 2): forced
+    response, loss-factor damping ``d = c tan(delta) / w_F`` at ``w_F = max(Omega, floor)``,
+    and where the speed grid lies with respect to the floor."""
+    lowest = float(np.min(speed_hz))
+    where = ("w_F = Omega at every speed of the grid" if lowest >= floor_hz else
+             f"w_F = the floor below {floor_hz:g} Hz, Omega above")
+    return (f"forced response: loss-factor damping c tan(delta) / w_F at w_F = max(Omega, "
+            f"{floor_hz:g} Hz) (analysis.damping_floor_hz); {where}")
 
 
 def format_table(checks: list[CriticalSpeedCheck], unit: str, operating_hz) -> str:

@@ -19,7 +19,9 @@ Derived quantities (``f`` in Hz, ``s`` the rotor speed in Hz):
   ``Lambda = -2 pi Re lambda / |Im lambda|`` (API 684 uses the log decrement);
 * critical speeds of order ``k``: where a mode's damped natural frequency meets the excitation
   line ``f = k s`` (linear interpolation between grid speeds);
-* onset of instability: where a mode's real part crosses zero from below (interpolated).
+* onset of instability: where a mode's real part crosses zero from below (interpolated);
+* whirl direction and mode shape of every mode at every speed from the generalised-coordinate
+  part of its eigenvector (:mod:`rotor_avc.analysis.mode_shapes`).
 """
 from __future__ import annotations
 
@@ -31,6 +33,7 @@ import scipy.optimize
 
 from ..errors import ModelError
 from ..closed_loop.loop import ClosedLoop
+from .mode_shapes import RotorGeometry, shape_rows, whirl_name
 from .poles import POLE_METHODS, PoleResult, closed_loop_poles, machine_poles
 from .sampled_loop import machine_sampled_loop
 from .stability_threshold import SampledEigenvalues
@@ -48,14 +51,36 @@ DAMPING_RULES: dict[str, Callable] = {"config": machine_poles, "forced": _forced
                                       **POLE_METHODS}
 
 
+def damping_rule_text(machine, rule: str, sampled: bool = False) -> str:
+    """What damping frequency ``w_F`` the poles of ``rule`` are computed with (DESIGN.md 2)."""
+    if rule == "config":
+        return damping_rule_text(machine, machine.analysis.pole_method, sampled) \
+            + " (the config's analysis.pole_method)"
+    if rule == "forced":
+        text = (f"w_F = max(Omega, {machine.analysis.damping_floor_hz:g} Hz) for every mode "
+                "(forced-response convention, analysis.damping_floor_hz)")
+    elif rule == "worst_case":
+        n_modes = machine.analysis.worst_case.n_modes
+        text = (f"w_F = the whirl frequency of mode {n_modes} for every mode (worst case, "
+                "Werner 2021 Fig. 4)")
+    else:
+        text = ("w_F = each mode's own whirl frequency (per-mode iteration, Werner 2019 Sec. 3.3)"
+                + ("; the sampled loop at the least damped pole's" if sampled else ""))
+    return text
+
+
 @dataclass
 class CampbellDiagram:
     """Tracked modes over speed: column ``k`` of ``poles`` follows one mode (``Im >= 0`` at the
-    first speed; ordered by frequency there and labelled with it, e.g. ``mode 3 (15.96 Hz)``)."""
+    first speed; ordered by frequency there and labelled with it, e.g. ``mode 3 (15.96 Hz)``);
+    ``shapes[i, :, k]`` is its generalised-coordinate eigenvector at speed ``i``."""
 
     speed_rad_s: np.ndarray
     poles: np.ndarray                       # (speeds, modes), 1/s
     labels: list[str]
+    shapes: np.ndarray                      # (speeds, coordinates, modes), complex
+    geometry: RotorGeometry
+    damping_rule: str = ""
 
     @property
     def speed_hz(self) -> np.ndarray:
@@ -76,6 +101,28 @@ class CampbellDiagram:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(np.abs(self.poles.imag) > 0,
                             -2 * np.pi * self.poles.real / np.abs(self.poles.imag), np.inf)
+
+    @property
+    def ellipticity(self) -> np.ndarray:
+        """Whirl ellipticity ``(|r_f| - |r_b|) / (|r_f| + |r_b|)`` of every mode at every speed
+        (> 0 forward; ``nan``: no rotor motion): see :mod:`rotor_avc.analysis.mode_shapes`."""
+        return np.array([self.geometry.ellipticity(v, p) for v, p in zip(self.shapes, self.poles)])
+
+    def whirl(self, index: int) -> list[str]:
+        """``forward`` / ``backward`` / ``none`` of every mode at speed ``index``."""
+        ellipticity = self.geometry.ellipticity(self.shapes[index], self.poles[index])
+        return [whirl_name(e) for e in ellipticity]
+
+    def reference_index(self, speed_hz: float | None) -> int:
+        """The grid speed nearest to ``speed_hz`` (None: the highest), where whirl and shape are
+        reported."""
+        return len(self.speed_hz) - 1 if speed_hz is None \
+            else int(np.argmin(np.abs(self.speed_hz - speed_hz)))
+
+    def caption(self, k: int, index: int) -> str:
+        """``mode 3, 15.96 Hz, FW`` (frequency at the first speed, whirl at speed ``index``)."""
+        whirl = {"forward": "FW", "backward": "BW", "none": "no whirl"}[self.whirl(index)[k]]
+        return self.labels[k].replace(" (", ", ").rstrip(")") + f", {whirl}"
 
     def critical_speeds(self, orders=(1, 2)) -> list[dict]:
         """Where mode frequency ``f_k(s)`` meets ``order * s`` -> rows ``{"mode", "order",
@@ -100,12 +147,20 @@ class CampbellDiagram:
                              "freq_hz": float(np.interp(x, s, self.freq_hz[:, k]))})
         return sorted(rows, key=lambda r: r["speed_hz"])
 
-    def to_json(self, orders=(1, 2)) -> dict:
+    def to_json(self, orders=(1, 2), reference_speed_hz: float | None = None) -> dict:
+        """Speeds, modes (frequency and damping over speed; whirl and shape at the reference
+        speed), critical speeds and the damping rule."""
+        i = self.reference_index(reference_speed_hz)
+        whirl = self.whirl(i)
         return {"speed_hz": self.speed_hz.tolist(),
                 "modes": [{"label": label, "freq_hz": self.freq_hz[:, k].tolist(),
-                           "damping_ratio": self.damping_ratio[:, k].tolist()}
+                           "damping_ratio": self.damping_ratio[:, k].tolist(),
+                           "whirl": whirl[k],
+                           "shape": shape_rows(self.shapes[i, :, k], self.geometry.coords)}
                           for k, label in enumerate(self.labels)],
-                "critical_speeds": self.critical_speeds(orders)}
+                "critical_speeds": self.critical_speeds(orders),
+                "reference_speed_hz": float(self.speed_hz[i]),
+                "damping_rule": self.damping_rule}
 
 
 def _crossings(x: np.ndarray, g: np.ndarray, valid: np.ndarray, rising_only=False) -> list[float]:
@@ -154,11 +209,13 @@ def sampled_poles(machine):
     return poles
 
 
-def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
-                     sampled: bool = False) -> CampbellDiagram:
+def campbell_diagram(machine, speeds_rad_s, rule: str = "config", sampled: bool = False,
+                     rotor_pairs=None) -> CampbellDiagram:
     """Poles of ``machine`` (its ``loop``, or with ``sampled`` its sampled loop: see
     :func:`sampled_poles`) over a speed grid with a damping rule, tracked by eigenvector
-    similarity (see the module docstring)."""
+    similarity (see the module docstring). ``rotor_pairs``: the rotor's lateral coordinate
+    names ``(a, b)``, spin from ``a`` towards ``b``, for the whirl direction (default: the
+    model's, :data:`rotor_avc.analysis.mode_shapes.ROTOR_PAIRS`)."""
     if rule not in DAMPING_RULES:
         raise ModelError(f"unknown damping rule {rule!r}; known: {', '.join(DAMPING_RULES)}")
     speeds = np.asarray(speeds_rad_s, dtype=float)
@@ -166,7 +223,8 @@ def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
         raise ModelError("Campbell speeds must be an increasing grid of >= 2 speeds >= 0")
     poles_at = DAMPING_RULES[rule]
     discrete = sampled_poles(machine) if sampled else None
-    tracked, prev = [], None
+    n = machine.plant.n
+    tracked, vectors, prev = [], [], None
     for speed in speeds:
         res = poles_at(machine, float(speed))
         if discrete is not None:
@@ -181,6 +239,7 @@ def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
             _, cols = scipy.optimize.linear_sum_assignment(tracking_cost(*prev, lam, vec))
             lam, vec = lam[cols], vec[:, cols]
         tracked.append(lam)
+        vectors.append(vec[:n])
         prev = (lam, vec)
     poles = np.array(tracked)
     scale = max(np.abs(poles[0]).max(), 1.0)
@@ -189,4 +248,11 @@ def campbell_diagram(machine, speeds_rad_s, rule: str = "config",
     f0 = np.abs(poles[0, keep].imag) / (2 * np.pi)
     labels = [f"mode {k + 1} ({f:.4g} Hz)" if f > 0 else f"mode {k + 1} (non-oscillating)"
               for k, f in enumerate(f0)]
-    return CampbellDiagram(speeds, poles[:, keep], labels)
+    geometry = RotorGeometry.of_machine(machine) if rotor_pairs is None else \
+        RotorGeometry.named(machine.plant.coords, rotor_pairs, machine.config.raw("model", None))
+    shapes = np.array([v[:, keep] for v in vectors])
+    for i in range(len(speeds) - 1, -1, -1):          # repeated poles resolved from the top down
+        shapes[i] = geometry.circular_basis(shapes[i], poles[i, keep],
+                                            shapes[i + 1] if i + 1 < len(speeds) else None)
+    return CampbellDiagram(speeds, poles[:, keep], labels, shapes, geometry,
+                           damping_rule_text(machine, rule, sampled))

@@ -65,6 +65,11 @@ class RigidRunup:
                              f"of the integrator step {self.integrator_step_s} s")
 
     @property
+    def top_speed_rad_s(self) -> float:
+        """The speed at the end of the run (the highest)."""
+        return self.speed0_rad_s + self.accel_rad_s2 * self.duration_s
+
+    @property
     def n_samples(self) -> int:
         return int(round(self.duration_s / self.sample_period_s)) + 1
 

@@ -13,7 +13,9 @@ The section's keys depend on what the config's model supports (rotor_avc.machine
   gives a balancer for this machine): :class:`PlaneBalancerSettings` -> :class:`MachineSetup`.
 
 Each setup builds the block (estimator + law + supervisor), the actuator and the in-process
-run-up scenario, so the command line, the tests and the balancer node share one reading.
+run-up scenario, so the command line, the tests and the balancer node share one reading; its
+``grade`` rates an unbalance by ISO 21940-11:2016 (:mod:`.grade`) against the section's
+``permissible_grade_mm_s`` at the run-up's highest speed.
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from ..models.rigid_rotor import RigidRotor
 from ..settings import read_settings, setting
 from .actuator import BalancerActuator
 from .block import BalancerBlock
+from .grade import RotorGrade
 from .influence import InfluenceTable, influence_table
 from .machine_rls import MachineImbalanceRls
 from .plane import MachinePlane, point_mass_unbalance
@@ -153,6 +156,10 @@ class RigidBalancerSettings:
                                          unit="m", positive=True)
     sample_period_s: float = setting(doc="T, the estimator's sample period (Zhou & Shi 2001 "
                                      "eq. 2)", unit="s", positive=True)
+    permissible_grade_mm_s: float = setting(2.5, "permissible balance quality grade G of the "
+                                            "residual unbalance (ISO 21940-11:2016 6.2, "
+                                            "Table 1: G 2.5 e.g. for electric motors)",
+                                            unit="mm/s", positive=True)
     estimator: RigidEstimatorSettings = setting(RigidEstimatorSettings, "the RLS estimate")
     supervisor: RigidSupervisorSettings = setting(RigidSupervisorSettings, "when and where the "
                                                   "balancer moves")
@@ -177,6 +184,7 @@ class RigidSetup:
     estimate_until_s: float
     strategy: str
     weight: object
+    grade: RotorGrade
 
     def schedule(self, weight=None):
         W = switching_weight(self.rotor, self.runup.balancer_axial_m,
@@ -222,7 +230,10 @@ def rigid_setup(cfg: Section) -> RigidSetup:
                        tilt_noise_std_rad=est.tilt_noise_std_rad,
                        gyro_compensation=est.gyro_compensation, axes=est.axes),
         estimate_until_s=sup.estimate_until_s, strategy=sup.strategy,
-        weight=sup.switching_weight)
+        weight=sup.switching_weight,
+        grade=RotorGrade(rotor.mass_kg, (("bearing y-", -rotor.length_m / 2),
+                                         ("bearing y+", rotor.length_m / 2)), 1.0,
+                         runup.top_speed_rad_s, s.permissible_grade_mm_s))
 
 
 # -- plane_balancer: one plane on a LinearPlant machine ------------------------------------------
@@ -300,6 +311,10 @@ class PlaneBalancerSettings:
                                                 "limit)", unit="kg m/s", positive=True)
     sample_period_s: float = setting(doc="the balancer's sample period", unit="s",
                                      positive=True)
+    permissible_grade_mm_s: float = setting(2.5, "permissible balance quality grade G of the "
+                                            "residual unbalance (ISO 21940-11:2016 6.2, "
+                                            "Table 1: G 2.5 e.g. for electric motors)",
+                                            unit="mm/s", positive=True)
     signals: tuple[str, ...] | None = setting(None, "the estimate's signals: feet with actuators "
                                               "(their vertical accelerations) or plant outputs "
                                               "(default: every actuator's foot)", min_length=1)
@@ -341,6 +356,7 @@ class MachineSetup:
     estimator: dict
     estimate_until_s: float
     strategy: str
+    grade: RotorGrade
 
     def block(self, strategy: str | None = None) -> BalancerBlock:
         est = MachineImbalanceRls(self.signals, self.plane, **self.estimator)
@@ -397,4 +413,7 @@ def machine_setup(machine: Machine) -> MachineSetup:
         estimator=dict(prior_std_kg_m=est.prior_std_kg_m, prior_std_kg_m2=est.prior_std_kg_m2,
                        noise_std=est.noise_std, min_speed_rad_s=min_speed,
                        forgetting=est.forgetting_factor),
-        estimate_until_s=s.supervisor.estimate_until_s, strategy=s.supervisor.strategy)
+        estimate_until_s=s.supervisor.estimate_until_s, strategy=s.supervisor.strategy,
+        grade=RotorGrade(cfg.section("machine").number("rotor_mass_kg", unit="kg"),
+                         (("bearing N", plane.rotor_min_m), ("bearing D", plane.rotor_max_m)),
+                         1j, stop, s.permissible_grade_mm_s))

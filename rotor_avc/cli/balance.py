@@ -3,7 +3,9 @@
 Zhou & Shi 2001 rotor (``model: rigid_rotor``): the time-domain run-up of the paper's Figure 4 with the
 config's strategy and with no balancing. A LinearPlant machine with a ``balancer:`` section
 (Werner 2021): the quasi-steady run-up (:mod:`rotor_avc.balancing.quasi_steady`) with every
-correction strategy, and the per-resonance peak comparison.
+correction strategy, and the per-resonance peak comparison. Both: the ISO 21940-11 balance
+grade (:mod:`rotor_avc.balancing.grade`) of the true unbalance, of the balancer's final
+estimate and of the residual after its final correction, printed and in ``balance.json``.
 """
 from __future__ import annotations
 
@@ -11,21 +13,23 @@ import dataclasses
 
 import numpy as np
 
+from ..balancing.grade import grade_text, service_speed_note
 from ..balancing.plane_correction import CORRECTION_STRATEGIES
 from ..balancing.quasi_steady import resonance_comparison, simulate_machine_runup
 from ..balancing.rigid_runup import simulate_rigid_runup
 from ..balancing.scenario import machine_setup, rigid_setup
 from ..config import load_config
 from ..machine import load_machine, model_supports
-from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_machine_runs,
-                                    write_rigid_runs)
+from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_grades,
+                                    write_machine_runs, write_rigid_runs)
 from ..output_files import make_folder
 from .common import nonnegative_float, output_folder
 
 NAME = "balance"
 HELP = ("Balanced run-up (in-process) of a machine with a one-plane balancer: time series (npz), "
         "a plot of the vibration with and without balancing, the estimate's convergence and the "
-        "switching instants.")
+        "switching instants, and the ISO 21940-11 balance grade of the balancer's estimate and "
+        "of the residual unbalance (balance.json).")
 EXAMPLE = "rotor-avc balance balancer_rigid_rotor --out out/balance"
 
 
@@ -72,7 +76,20 @@ def _rigid(cfg, args) -> int:
               f"{p2 * 1e3:.3f} mm, RMS {rec.rms * 1e3:.3f} mm")
     plot_rigid_runs(args.out / "balance.png", bal, ref, err, sched.times)
     print(f"wrote {args.out / 'balance.png'}")
+    grade = dataclasses.replace(setup.grade, speed_rad_s=runup.top_speed_rad_s)
+    _grades(args.out, grade.balancer_grades(runup.true_amplitudes(), block.estimator.amplitudes(),
+                                            block.law.corrections(bal.position[-1])),
+            grade.speed_rad_s)
     return 0
+
+
+def _grades(out, grades: dict, speed_rad_s: float) -> None:
+    note = service_speed_note(speed_rad_s)
+    print(f"ISO 21940-11 balance grade at the end of the run-up ({note}):")
+    for name, label in (("true", "true unbalance"), ("estimate", "balancer's estimate"),
+                        ("residual", "residual after correction")):
+        print(f"  {label:26s} {grade_text(grades[name])}")
+    print(f"wrote {write_grades(out, grades, note)}")
 
 
 def _machine(machine, args) -> int:
@@ -97,4 +114,8 @@ def _machine(machine, args) -> int:
               + "  ".join(f"{k} {row[k + '_reduction_db']:+.1f}" for k in envelopes))
     plot_machine_runs(args.out / "balance.png", rec, none, envelopes, err)
     print(f"wrote {args.out / 'balance.png'}")
+    estimate = dict(zip(("static", "moment"), rec.estimate[-1]))
+    _grades(args.out, setup.grade.balancer_grades(dict(zip(("static", "moment"), u)), estimate,
+                                                  setup.plane.corrections(rec.position[-1])),
+            setup.grade.speed_rad_s)
     return 0

@@ -7,6 +7,7 @@ import json
 import numpy as np
 
 from ..analysis.campbell import DAMPING_RULES, campbell_diagram
+from ..analysis.mode_shapes import dominant_parts
 from ..errors import ConfigError
 from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
@@ -16,8 +17,9 @@ from .common import output_folder, speed_range_from_zero_hz
 
 NAME = "campbell"
 HELP = ("Campbell diagram: every mode's damped natural frequency and damping over rotor speed "
-        "(modes tracked by eigenvector similarity), the 1x/2x lines, critical speeds and onsets "
-        "of instability; poles as `rotor-avc poles` gives them at each speed.")
+        "(modes tracked by eigenvector similarity), its whirl direction and mode shape, the 1x/2x "
+        "lines, critical speeds and onsets of instability; poles as `rotor-avc poles` gives them "
+        "at each speed.")
 EXAMPLE = "rotor-avc campbell foot_mount_case3 --speed-hz 0:250:200 --out out/campbell"
 
 
@@ -40,12 +42,18 @@ def add_arguments(p) -> None:
     p.add_argument("--orders", type=_orders, default=(1, 2), metavar="K,K",
                    help="excitation orders for the lines and critical speeds (default 1,2)")
     p.add_argument("--max-freq-hz", type=float, default=None,
-                   help="top of the plot's frequency axis (default 1.1 x the highest order line)")
+                   help="top of the plot's frequency axis (default 1.2 x the highest frequency of "
+                        "the modes below the highest speed)")
+    p.add_argument("--running-hz", type=float, default=None, metavar="HZ",
+                   help="speed at which whirl direction and mode shapes are reported (the "
+                        "nearest grid speed; default the highest)")
     p.add_argument("--speed-unit", choices=("hz", "rpm"), default="hz",
                    help="speed axis of the PNG and the report's initial choice")
     p.add_argument("--json", action="store_true",
-                   help='print {"speed_hz": [...], "modes": [{"label", "freq_hz", "damping_ratio"}], '
-                        '"critical_speeds": [{"mode", "order", "speed_hz"}]}')
+                   help='print {"speed_hz": [...], "modes": [{"label", "freq_hz", "damping_ratio", '
+                        '"whirl", "shape": [{"coordinate", "magnitude", "phase_deg"}]}], '
+                        '"critical_speeds": [{"mode", "order", "speed_hz"}], "reference_speed_hz", '
+                        '"damping_rule"}')
     p.add_argument("--out", type=output_folder, help="folder for campbell.png, campbell.json and index.html")
 
 
@@ -72,14 +80,19 @@ def selected_machine(config, closed: bool, open_: bool):
 
 
 def run(args) -> int:
+    speeds = np.asarray(args.speed_hz, dtype=float)
+    if args.running_hz is not None and not speeds.min() <= args.running_hz <= speeds.max():
+        raise ConfigError("--running-hz", f"{args.running_hz:g} Hz lies outside the speed grid "
+                          f"{speeds.min():g} .. {speeds.max():g} Hz",
+                          fix="give a speed within --speed-hz")
     machine = selected_machine(args.config, args.closed, args.open)
     cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping, args.sampled)
-    data = cd.to_json(args.orders)
+    data = cd.to_json(args.orders, args.running_hz)
     if args.json:
         print(json.dumps(data))
     loops = ("sampled closed loop" if args.sampled else "closed loop") if machine.controllers \
         else "loops open"
-    title = f"{machine.plant.name}: Campbell diagram ({loops}, damping: {args.damping})"
+    title = f"{machine.plant.name}: Campbell diagram ({loops}; damping {cd.damping_rule})"
     if args.out:
         make_folder(args.out)
         onsets = cd.instability_onsets()
@@ -87,23 +100,27 @@ def run(args) -> int:
             json.dump({**data, "instability_onsets": onsets, "loops": loops,
                        "damping": args.damping, "machine": machine.plant.name}, fh, indent=1)
         png = plot_campbell(cd, args.out / "campbell.png", title, args.colour, args.orders,
-                            args.max_freq_hz, args.speed_unit)
+                            args.max_freq_hz, args.speed_unit, args.running_hz)
         report = write_campbell_html(cd, args.out / "index.html", title, args.colour, args.orders,
-                                     args.max_freq_hz, args.speed_unit)
+                                     args.max_freq_hz, args.speed_unit, args.running_hz)
         if not args.json:
             print(f"wrote {args.out / 'campbell.json'}, {png} and {report}")
     if not args.json:
-        _print_summary(cd, title, args.orders)
+        _print_summary(cd, title, args.orders, cd.reference_index(args.running_hz))
     return 0
 
 
-def _print_summary(cd, title: str, orders) -> None:
+def _print_summary(cd, title: str, orders, ref: int) -> None:
     s = cd.speed_hz
     print(title)
-    print(f"{'mode':>28} {f'f at {s[0]:g} Hz':>14} {f'f at {s[-1]:g} Hz':>14} {'min zeta':>9}")
+    print(f"whirl and dominant coordinates at {s[ref]:g} Hz")
+    print(f"{'mode':>28} {f'f at {s[0]:g} Hz':>14} {f'f at {s[-1]:g} Hz':>14} {'min zeta':>9} "
+          f"{'whirl':>8}  dominant coordinates")
+    whirl = cd.whirl(ref)
     for k, label in enumerate(cd.labels):
         print(f"{label:>28} {cd.freq_hz[0, k]:14.3f} {cd.freq_hz[-1, k]:14.3f} "
-              f"{cd.damping_ratio[:, k].min():9.4f}")
+              f"{cd.damping_ratio[:, k].min():9.4f} {whirl[k]:>8}  "
+              f"{dominant_parts(cd.shapes[ref, :, k], cd.geometry)}")
     for r in cd.critical_speeds(orders):
         print(f"critical speed {r['speed_hz']:10.3f} Hz ({r['speed_hz'] * 60:9.1f} rpm): "
               f"{r['mode']}, order {r['order']}")

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..compare.checks import EXIT_NO_VERDICT
 from ..compare.comparison import compare_bag
+from ..compare.iso_zones import format_iso_table, iso20816_entries
 from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
@@ -16,7 +17,8 @@ NAME = "compare"
 HELP = ("Compare a recorded run (.mcap bag) with the continuous and the sampled-loop model built "
         "from the bag's own configuration: 1x response per speed (order tracking), broadband "
         "FRFs (H1/H2) when the run had a test force; writes DIR/index.html, PNG plots, frf.csv, "
-        "frf.uff (UFF type 58: measured and model FRFs, coherence, SI units) and metrics.json. "
+        "frf.uff (UFF type 58: measured and model FRFs, coherence, SI units) and metrics.json "
+        "(with the ISO 20816-3 zone of each bearing-housing channel, `analysis.iso20816`). "
         "Exit status 1 when a check fails (magnitude, phase, dead channels), 5 when nothing "
         "could be rated (no verdict, with the reason), 2 for an unreadable bag, 3 for a "
         "recording with missing samples (checked first: stamps contiguous at the run's period, "
@@ -69,7 +71,9 @@ def run(args) -> int:
 def report(comp, bag, out: Path) -> dict:
     """Write the report folder and print the summary; returns the report's files."""
     from ..reports.uff_files import write_uff      # pyuff: imported only to write the file
-    files = write_report(comp, out)
+    iso, iso_notes = iso20816_entries(comp.run)
+    comp.notes.extend(iso_notes)
+    files = write_report(comp, out, iso)
     uff = write_uff(comp, out / "frf.uff")
     if uff is not None:
         files["uff"] = uff
@@ -88,6 +92,7 @@ def report(comp, bag, out: Path) -> dict:
         value = "-" if c.value is None else f"{c.value:.3g} {c.unit}"
         print(f"  {verdict:4s}  {c.name}: {value} (tolerance {c.tolerance:g} {c.unit}); "
               f"{c.detail}")
+    print(format_iso_table(iso))
     for note in comp.notes:
         print(f"  note: {note}")
     why = f" ({comp.no_verdict_reason})" if comp.no_verdict_reason else ""

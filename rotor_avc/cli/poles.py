@@ -25,6 +25,17 @@ def add_arguments(p) -> None:
                         "(re/im in rad/s; one pole of each conjugate pair)")
 
 
+def damping_rule(machine) -> str:
+    """The loss-factor damping of the poles printed (``analysis.pole_method``, DESIGN.md 2)."""
+    a = machine.analysis
+    if a.pole_method == "worst_case":
+        return (f"loss-factor damping c tan(delta) / w_F of every mode at one w_F, the whirl "
+                f"frequency of mode {a.worst_case.n_modes}, iterated (Werner 2021 Fig. 4; "
+                "analysis.pole_method worst_case)")
+    return ("loss-factor damping c tan(delta) / w_F of each mode at its own whirl frequency "
+            "(Werner 2019 Sec. 3.3; analysis.pole_method whirl_iteration)")
+
+
 def run(args) -> int:
     machine = load_machine(args.config)
     if args.speed_hz is None:
@@ -33,12 +44,14 @@ def run(args) -> int:
     rows = result.table()
     if args.json:
         print(json.dumps({"speed_hz": args.speed_hz, "poles": rows,
+                          "damping_rule": damping_rule(machine),
                           "damping_frequency_rad_s": result.w_F,
                           "damping_frequency_history_rad_s": result.history,
                           "stable": result.stable}, indent=1))
         return 0
     print(f"{machine.plant.name}: poles at f_r = {args.speed_hz:g} Hz "
           f"({'closed loop' if machine.controllers else 'loops open'})")
+    print(f"damping: {damping_rule(machine)}")
     print("damping frequency w_F iterations [rad/s]: "
           + " -> ".join(f"{w:.1f}" for w in result.history))
     print(f"{'re [1/s]':>12} {'im [rad/s]':>12} {'f [Hz]':>10} {'zeta':>8}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..analysis.robustness import robustness_point, summarize
+from ..analysis.robustness import grid_end_lines, robustness_point, summarize
 from ..config import load_config
 from ..reports.robustness_files import STATS, plot_distributions, write_summary
 from ..studies.backends import backend_from_args
@@ -66,7 +66,8 @@ def table(summary: dict, unit_of) -> str:
     lines = [f"stable: {summary['stable']} of {summary['points']} evaluated points -> probability "
              f"{summary['stability_probability']:.4f} (95 % interval {lo:.4f} .. {hi:.4f}); "
              f"{summary['failed']} failed",
-             f"{'quantity':38s}{'unit':>14s}" + "".join(f"{s:>11s}" for s in STATS)]
+             f"{'quantity':38s}{'unit':>14s}{'n':>6s}" + "".join(f"{s:>11s}" for s in STATS)]
     for name, m in summary["metrics"].items():
-        lines.append(f"{name:38s}{unit_of(name):>14s}" + "".join(f"{m[s]:11.4g}" for s in STATS))
-    return "\n".join(lines)
+        lines.append(f"{name:38s}{unit_of(name):>14s}{m['n']:6d}"
+                     + "".join(f"{m[s]:11.4g}" for s in STATS))
+    return "\n".join(lines + grid_end_lines(summary))

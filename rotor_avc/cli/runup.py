@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.api684 import format_table
+from ..analysis.api684 import format_table, overall_verdict, verdict_line
+from ..compare.iso_zones import format_iso_table, iso20816_entries
 from ..compare.mapped_run import read_mapped_run
 from ..compare.recorded_run import read_run
 from ..errors import ConfigError
@@ -22,8 +23,10 @@ from .common import output_folder
 
 NAME = "runup"
 HELP = ("Run-up views of a bag: waterfall (spectra over speed, orders marked), 1x Bode and polar "
-        "plots per channel against the bag's model, bearing-housing orbits, and API 684 "
-        "unbalance-response checks of the measured and the modelled 1x.")
+        "plots per channel against the bag's model, bearing-housing orbits, API 684 "
+        "unbalance-response checks of the measured and the modelled 1x, and the ISO 20816-3 "
+        "zone of each bearing-housing channel (largest 1 s r.m.s. velocity of the run, "
+        "`analysis.iso20816`; metrics.json). Exit status 1 when an API 684 row fails.")
 EXAMPLE = ("rotor-avc runup runup.mcap --operating-hz 28:30 --orbit-hz 10,20 --out out/runup\n"
            "  rotor-avc runup rig_runup/ --config machine.yaml --map map.yaml --out out/rig")
 
@@ -87,6 +90,9 @@ def run(args) -> int:
     orbit_speeds = args.orbit_hz or [top_hz / 3, 2 * top_hz / 3]
     orbs = orbits(run_, track, orbit_speeds)
     tables = api684_tables(track, operating)
+    iso, iso_notes = iso20816_entries(run_, whole_run=True)
+    verdict = overall_verdict({f"{c} ({kind})": checks for c, both in tables.items()
+                               for kind, checks in both.items()})
     make_folder(args.out)
     unit = args.speed_unit
     written = [plot_waterfall(wf, channel_unit(run_, wf_channel), args.out / "waterfall.png", unit)]
@@ -99,20 +105,30 @@ def run(args) -> int:
         "operating_speed_hz": list(operating),
         "channels": {c: {k: api_rows(v) for k, v in both.items()} for c, both in tables.items()}}),
         indent=1))
+    write_text(args.out / "metrics.json", json.dumps(jsonable({
+        "api684": verdict,
+        "iso20816": iso}), indent=1))
     name = run_.machine.plant.name
     summary = [("bag", str(run_.path)), ("machine", name),
                ("speed range", f"{track.speed_hz.min():.4g} .. {top_hz:.4g} Hz"),
                ("sample rate", f"{1 / run_.sample_period_s:g} Hz"),
                ("damping", run_.scenario.damping.describe()),
-               ("1x order tracking", track.method)] + [("note", n) for n in run_.notes]
+               ("1x order tracking", track.method)] + [("note", n)
+                                                       for n in run_.notes + iso_notes]
     report = write_runup_html(args.out / "index.html", f"{name}: run-up", summary, wf,
-                              channel_unit(run_, wf_channel), track, orbs, tables, operating, unit)
+                              channel_unit(run_, wf_channel), track, orbs, tables, operating, unit,
+                              iso)
     for c, both in tables.items():
         for kind, checks in both.items():
             print(f"API 684, {c} ({kind}):")
             print(format_table(checks, track.units[c], operating))
+    print(format_iso_table(iso))
+    for note in iso_notes:
+        print(f"  note: {note}")
     if not orbit_pairs(run_, channels):
         print("no orbit: the channels hold no point with two transverse outputs of one kind")
-    for path in written + [args.out / "api684.json", report]:
+    for path in written + [args.out / "api684.json", args.out / "metrics.json", report]:
         print(f"wrote {path}")
-    return 0
+    print(f"-> {verdict_line(verdict)}")
+    return 1 if verdict["failed"] else 0
+

@@ -5,7 +5,10 @@
   acceptance it tests, the run (bag, machine, sample rate, damping rule, unbalance), ``checks``
   (each with ``value``, ``tolerance``, ``unit``, ``passed``, ``detail``), the continuous model's
   values of the same metrics (``reference_model_metrics``, no verdict), per-channel 1x metrics,
-  the resonances, the broadband estimates with their settings, pole summaries and notes;
+  the resonances, the broadband estimates with their settings, pole summaries, notes and
+  ``iso20816``: the ISO 20816-3 zone of each bearing-housing channel
+  (:mod:`rotor_avc.compare.iso_zones`: ``channel``, ``rms_mm_s``, ``zone``, ``group``,
+  ``support``, ``band_hz``, ``quantity``, ``windows``);
 * ``frf.csv``: one row per channel and speed (``kind = 1x``) or frequency (``kind = broadband``):
   measured (H1 for broadband, with H2 and coherence), sampled-loop and continuous model, each as
   magnitude (SI unit per unit unbalance or per N) and phase in degrees, and the error in dB of
@@ -59,7 +62,7 @@ def _summary(c: dict) -> dict:
             "max_abs_phase_error_deg": float(np.abs(ph[ok]).max()) if ok.any() else None}
 
 
-def metrics(comp: Comparison) -> dict:
+def metrics(comp: Comparison, iso20816=()) -> dict:
     run = comp.run
     sc = run.scenario
     out = {"pass": comp.passed, "verdict": comp.verdict,
@@ -72,7 +75,7 @@ def metrics(comp: Comparison) -> dict:
            "assumed": run.assumptions,
            "checks": [c.as_dict() for c in comp.checks],
            "reference_model_metrics": [c.as_dict() for c in comp.reference_metrics],
-           "notes": comp.notes}
+           "notes": comp.notes, "iso20816": list(iso20816)}
     one = comp.one_x
     if one is not None:
         out["one_x"] = {
@@ -274,6 +277,23 @@ def _fmt(v) -> str:
     return "-" if v is None else f"{v:.4g}"
 
 
+def iso_table(entries) -> str:
+    """The ISO 20816-3 entries as a small HTML table."""
+    return _table([[e["channel"], f"{e['rms_mm_s']:.4g}", e["zone"], e["quantity"]]
+                   for e in entries], ["channel", "r.m.s. velocity [mm/s]", "zone", "quantity"])
+
+
+def iso_heading(entries) -> str:
+    """The heading and the basis of :func:`iso_table`."""
+    if not entries:
+        return "<h2>ISO 20816-3 zones</h2><p>No bearing-housing channel evaluated.</p>"
+    e = entries[0]
+    return (f"<h2>ISO 20816-3 zones</h2><p class=\"note\">Group {e['group']}, {e['support']} "
+            f"support (Annex A); broadband r.m.s. velocity over {e['band_hz'][0]:g} .. "
+            f"{e['band_hz'][1]:g} Hz, the largest of the sliding windows (module "
+            "rotor_avc.compare.iso_zones); a value on a boundary lies in the lower zone.</p>")
+
+
 def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Path:
     verdict = comp.verdict
     checks = _table([[{True: "pass", False: "FAIL", None: "-"}[c.passed], c.name, _fmt(c.value),
@@ -315,6 +335,7 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
               _table(res_rows, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
                                 "peak error [dB]"]),
               "<h2>Poles with the run's damping</h2>", poles, *poles_figure(comp),
+              iso_heading(data["iso20816"]), iso_table(data["iso20816"]),
               f"<h2>Notes</h2><ul>{notes or '<li>none</li>'}</ul>"]
     if comp.one_x is not None:
         blocks += ["<h2>1x response over speed</h2>", *one_x_figures(comp)]
@@ -326,11 +347,12 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
     return path
 
 
-def write_report(comp: Comparison, out_dir) -> dict[str, Path]:
-    """Write the report folder; returns the paths by role."""
+def write_report(comp: Comparison, out_dir, iso20816=()) -> dict[str, Path]:
+    """Write the report folder (``iso20816``: the entries of
+    :func:`rotor_avc.compare.iso_zones.iso20816_entries`); returns the paths by role."""
     out_dir = Path(out_dir)
     make_folder(out_dir)
-    data = metrics(comp)
+    data = metrics(comp, iso20816)
     write_text(out_dir / "metrics.json", json.dumps(data, indent=1))
     csv_path = write_csv(comp, out_dir / "frf.csv")
     pngs = ((plot_one_x(comp, out_dir) if comp.one_x else []) + plot_broadband(comp, out_dir)

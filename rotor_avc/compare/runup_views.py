@@ -98,10 +98,10 @@ def channel_unit(run: RecordedRun, channel: str) -> str:
     return out.unit if out is not None else ("N" if channel.startswith("actuator_") else "")
 
 
-def housing_channels(run: RecordedRun) -> list[str]:
+def housing_channels(run) -> list[str]:
     """The bearing-housing outputs of the run's plant (``bearing...``/``housing...``), else every
     plant output."""
-    names = [o.name for o in run.machine.plant.outputs if o.name in run.channels]
+    names = [o.name for o in run.machine.plant.outputs if o.name in run.channel_names]
     housing = [n for n in names if n.startswith(("bearing", "housing"))]
     return housing or names
 

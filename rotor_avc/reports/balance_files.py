@@ -1,4 +1,5 @@
-"""Files of `rotor-avc balance`: the balanced and unbalanced run-ups (npz, JSON) and their plots."""
+"""Files of `rotor-avc balance`: the balanced and unbalanced run-ups (npz, JSON), the ISO
+21940-11 balance grades (``balance.json``) and the plots."""
 from __future__ import annotations
 
 import json
@@ -30,6 +31,14 @@ def write_machine_runs(out: Path, rec, none, envelopes, unbalance, err, table) -
                  mode=rec.mode.astype(str))
     write_text(out / "resonances.json", json.dumps(table, indent=1))
     return path, out / "resonances.json"
+
+
+def write_grades(out: Path, grades: dict, note: str) -> Path:
+    """``balance.json``: the ISO 21940-11 grades of the true unbalance, the balancer's estimate
+    and the residual after correction (:meth:`rotor_avc.balancing.grade.RotorGrade.balancer_grades`),
+    with how the service speed was chosen."""
+    return write_text(out / "balance.json", json.dumps({"iso21940_11": {
+        "service_speed": note, **grades}}, indent=1) + "\n")
 
 
 def plot_rigid_runs(path, bal, ref, err, switches) -> None:

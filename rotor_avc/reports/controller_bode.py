@@ -1,4 +1,5 @@
-"""The Bode plot of `rotor-avc controller`: a foot controller continuous and discrete."""
+"""The Bode plots of `rotor-avc controller`: a foot controller continuous and discrete, and the
+figure layout the loop plots (:mod:`rotor_avc.reports.loop_plots`) share."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,12 +9,35 @@ import numpy as np
 from ..output_files import save_figure
 
 
-def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
-    """``|G_c(jw)|`` and phase against the discrete filter ``G_d(e^{jwT})`` up to Nyquist."""
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (imported only when a plot is drawn)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    return plt
 
+
+def save_bode(fig, ax1, ax2, path: Path, title: str, magnitude_label: str, xlabel: str) -> Path:
+    """A magnitude-over-phase figure finished (phase axis in 90 deg steps, labels, grid, legend,
+    title), saved to ``path`` and closed."""
+    ax2.set_ylim(-190, 190)
+    ax2.set_yticks(np.arange(-180, 181, 90))
+    ax1.set_ylabel(magnitude_label)
+    ax2.set_ylabel("phase [deg]")
+    ax2.set_xlabel(xlabel)
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, which="both")
+    ax1.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+    pyplot().close(fig)
+    return path
+
+
+def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
+    """``|G_c(jw)|`` and phase against the discrete filter ``G_d(e^{jwT})`` up to Nyquist."""
+    plt = pyplot()
     nyq = 0.5 / tf.sample_period_s
     f = np.logspace(np.log10(nyq) - 5, np.log10(nyq), 800)
     w = 2 * np.pi * f
@@ -26,16 +50,5 @@ def plot_bode(ctrl, tf, path: Path, title: str) -> Path:
     ax2.semilogx(f, np.degrees(np.angle(gc)))
     ax2.semilogx(f, np.degrees(np.angle(gd)), "--")
     ax1.set_ylim(db_c.min() - 40, db_c.max() + 20)     # a Tustin zero at Nyquist dives to -inf
-    ax2.set_ylim(-190, 190)
-    ax2.set_yticks(np.arange(-180, 181, 90))
-    ax1.set_ylabel("magnitude [dB re 1 SI]")
-    ax2.set_ylabel("phase [deg]")
-    ax2.set_xlabel(f"frequency [Hz] (Nyquist {nyq:g} Hz)")
-    for ax in (ax1, ax2):
-        ax.grid(alpha=0.3, which="both")
-    ax1.legend(fontsize=8)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_bode(fig, ax1, ax2, path, title, "magnitude [dB re 1 SI]",
+                     f"frequency [Hz] (Nyquist {nyq:g} Hz)")

@@ -1,5 +1,6 @@
-"""``index.html`` of ``rotor-avc runup``: waterfall, 1x Bode and polar plots, orbits and the
-API 684 tables of a recorded run-up, interactive (:mod:`rotor_avc.interactive.page`)."""
+"""``index.html`` of ``rotor-avc runup``: waterfall, 1x Bode and polar plots, orbits, the
+API 684 tables and the ISO 20816-3 zones of a recorded run-up, interactive
+(:mod:`rotor_avc.interactive.page`)."""
 from __future__ import annotations
 
 import html
@@ -7,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..compare.report import iso_heading, iso_table
 from ..compare.runup_views import OneXTrack, Orbit, Waterfall
 from ..interactive.page import Figure, page, table_html
 from .runup_plots import ORDERS
@@ -84,10 +86,11 @@ def api_rows(checks) -> list[dict]:
 
 def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], wf: Waterfall,
                      wf_unit: str, track: OneXTrack, orbits: list[Orbit], tables: dict,
-                     operating_hz, speed_unit: str) -> Path:
+                     operating_hz, speed_unit: str, iso20816=()) -> Path:
     lo, hi = operating_hz
     blocks = ["<h2>Run</h2>", table_html([{"k": k, "v": v} for k, v in summary],
                                          [("k", "item"), ("v", "value")]),
+              iso_heading(iso20816), iso_table(iso20816),
               "<h2>Waterfall</h2>", waterfall_figure(wf, wf_unit),
               f"<h2>API 684 unbalance-response checks</h2><p class=\"note\">Operating speed range "
               f"{lo:g} .. {hi:g} Hz ({lo * 60:.0f} .. {hi * 60:.0f} rpm). Amplification factor by "
