@@ -25,6 +25,7 @@ from typing import Iterable, Iterator
 import numpy as np
 
 from .bag import topics as T
+from .block_kinds import BALANCER, HARMONIC, answer_prefixes
 from .bag.writer import BagWriter, write_bag
 
 
@@ -60,20 +61,15 @@ def run_streams(scenario, ts, namespace: str = T.NAMESPACE) -> list:
         if act.id in feedback:
             streams.append(T.actuator_force(act.id, t, ts[f"actuator_{act.id}_f{act.axis}"],
                                             axis=act.axis, namespace=namespace))
-    names = [n for n in ts.channels
-             if not n.startswith(("actuator_", "balancer_", "test_signal_", "harmonic_"))]
+    names = [n for n in ts.channels if not n.startswith(answer_prefixes() + ("test_signal_",))]
     streams.append(T.labelled_array("plant/observables", t, ["time_s"] + names,
                                     np.column_stack([t] + [ts[n] for n in names]), namespace))
-    corr = [f"balancer_{e.name}_{part}" for e in plant.excitations for part in ("re", "im")]
-    if all(c in ts.channels for c in corr):
-        labels = ["time_s"] + [c[len("balancer_"):] for c in corr]
-        streams.append(T.labelled_array("balancer/command", t, labels,
-                                        np.column_stack([t] + [ts[c] for c in corr]), namespace))
-    harmonic = [n for n in ts.channels if n.startswith("harmonic_")]
-    if harmonic:
-        streams.append(T.labelled_array(
-            "harmonic/forces", t, ["time_s"] + [n[len("harmonic_"):] for n in harmonic],
-            np.column_stack([t] + [ts[n] for n in harmonic]), namespace))
+    for kind in (BALANCER, HARMONIC):      # the machine-wide answers: one labelled array each
+        answers = [n for n in ts.channels if n.startswith(kind.channel_prefix)]
+        if answers:
+            labels = ["time_s"] + [n[len(kind.channel_prefix):] for n in answers]
+            streams.append(T.labelled_array(kind.answer_topic, t, labels, np.column_stack(
+                [t] + [ts[n] for n in answers]), namespace))
     test = scenario.test_force
     if test is not None:
         streams.append(T.labelled_array("plant/test_signal", t, ["time_s", test.channel],

@@ -36,6 +36,7 @@ import numpy as np
 from .analysis.active_bearing_ff import feedforward_method, synchronous_generator
 from .analysis.design_check import natural_frequencies_hz
 from .balancing.loop_block import LoopBalancer
+from .block_kinds import BALANCER, FEEDBACK, FEEDFORWARD, HARMONIC, BlockKind
 from .balancing.scenario import machine_setup
 from .control.block import build_digital_controllers
 from .errors import ModelError
@@ -108,6 +109,16 @@ class Scenario:
         if self.feedforward_method is None:
             return []
         return [a.id for a in self.machine.plant.actuators]
+
+    def block_kinds(self) -> dict[BlockKind, tuple[str, ...]]:
+        """The answering block kinds of the run (rotor_avc.block_kinds), in their start order,
+        each with the ids of its nodes: one per controlled actuator for the feedback
+        controllers, ``("",)`` for a kind with one node for the machine."""
+        present = {FEEDBACK: tuple(self.machine.controllers),
+                   FEEDFORWARD: ("",) if self.feedforward_actuators() else (),
+                   HARMONIC: ("",) if self.use_harmonic else (),
+                   BALANCER: ("",) if self.use_balancer else ()}
+        return {kind: ids for kind, ids in present.items() if ids}
 
     def harmonic(self):
         """The run's adaptive harmonic controller (``simulation.harmonic: true``), or None."""

@@ -62,7 +62,7 @@ KINDS = {
              "rosbag2_bags", "sim_profile", "sim_scenario", "sim_streaming", "sleeve_bearing_cli",
              "suite_kinds", "bag_info", "bag_sequence_streaming", "output_errors", "isolation",
              "studies_hostile", "declared_simulation", "declared_balancer", "seams", "api684_verdict",
-             "golden_outputs"),
+             "golden_outputs", "block_kinds"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
               "balancing_runup_response", "balancing_switching", "foot_mount_model",
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",

@@ -87,7 +87,7 @@ def test_wrong_frame_and_far_future_stamp_cost_one_sample(scenario):
         msg.header.frame_id = frame
         msg.accel.linear.z = value
 
-    got, lis = drive(ctrl, AccelStamped, m.foot_topic("DL", "acceleration"), sent, fill)
+    got, lis = drive(ctrl, AccelStamped, m.actuator_topic("DL", "acceleration"), sent, fill)
     ref = reference(scenario)
     expected = [ref.step(v) for k, v in enumerate(x) if k not in (10, 20)]
     assert got[10] == got[9] and got[20] == got[19]                  # safe output: hold
@@ -142,7 +142,7 @@ def test_flood_of_measurements_is_reported_as_dropped(scenario):
     ctrl = FootController("fc_flood", parameter_overrides=params(scenario=scenario, foot_id="DL",
                                                                  max_stamp_jump_s=10.0))
     lis = Listener("listener_flood")
-    pub = lis.node.create_publisher(AccelStamped, m.foot_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
+    pub = lis.node.create_publisher(AccelStamped, m.actuator_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
     ex = make_executor("events")
     for n in (ctrl, lis.node):
         ex.add_node(n)
@@ -295,7 +295,7 @@ def test_publisher_the_lockstep_subscription_cannot_match_is_an_error(scenario, 
     /diagnostics and counted, naming the policy and the fix, until it is gone; with the fix
     (measurement_qos sensor_data) the same publisher is answered."""
     T = load_scenario(scenario).sample_period_s
-    topic = m.foot_topic("DL", "acceleration")
+    topic = m.actuator_topic("DL", "acceleration")
     ctrl = FootController("fc_qos_lockstep", parameter_overrides=params(scenario=scenario,
                                                                         foot_id="DL"))
     assert ctrl.qos_name == "lockstep"

@@ -64,9 +64,9 @@ def answered_measurements(proc, n: int = 5) -> int:
     after the answer to the one before; the answers received."""
     node = rclpy.create_node("transport_probe")
     answers = []
-    node.create_subscription(WrenchStamped, m.foot_topic("DL", "actuator_force"),
+    node.create_subscription(WrenchStamped, m.actuator_topic("DL", "actuator_force"),
                              answers.append, m.LOCKSTEP_QOS)
-    pub = node.create_publisher(AccelStamped, m.foot_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
+    pub = node.create_publisher(AccelStamped, m.actuator_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
     ex = make_executor("events")
     ex.add_node(node)
     try:

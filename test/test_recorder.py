@@ -171,10 +171,10 @@ def test_lockstep_run_records_every_message(tmp_path):
         assert r.config["machine"]["name"] == "foot_mount_case3"
         assert r.config["package_version"]
         for f in FEET:
-            acc = r.series(m.foot_topic(f, "acceleration"))
+            acc = r.series(m.actuator_topic(f, "acceleration"))
             np.testing.assert_array_equal(acc.time_ns, t_ns)
             np.testing.assert_array_equal(acc["accel.linear.z"], ts[f"foot_{f}_az"])
-            force = r.series(m.foot_topic(f, "actuator_force"))
+            force = r.series(m.actuator_topic(f, "actuator_force"))
             np.testing.assert_array_equal(force.time_ns, t_ns)
             np.testing.assert_array_equal(force["wrench.force.z"], ts[f"actuator_{f}_fz"])
         obs = r.series("/avc/plant/observables")

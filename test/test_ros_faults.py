@@ -41,7 +41,7 @@ class Listener:
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.diag.append, 100)
         for f in FEET:
             self.node.create_subscription(
-                WrenchStamped, m.foot_topic(f, "actuator_force"),
+                WrenchStamped, m.actuator_topic(f, "actuator_force"),
                 lambda msg, f=f: self.forces.setdefault(f, []).append(
                     (m.stamp_ns(msg.header.stamp), msg.wrench.force.z)), m.LOCKSTEP_QOS)
 
@@ -132,7 +132,7 @@ def test_bad_and_stale_measurements_hold_a_safe_output(tmp_path):
     sc = scenario_file(tmp_path, "foot_mount_case3", 20.0, initial="rest")
     ctrl = FootController("fc_bad", parameter_overrides=params(scenario=sc, foot_id="DL"))
     lis = Listener("listener_bad")
-    pub = lis.node.create_publisher(AccelStamped, m.foot_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
+    pub = lis.node.create_publisher(AccelStamped, m.actuator_topic("DL", "acceleration"), m.LOCKSTEP_QOS)
     ex = make_executor("events")
     for n in (ctrl, lis.node):
         ex.add_node(n)
@@ -182,7 +182,7 @@ class StrayAnswers:
     def __init__(self, name: str, T: float):
         self.node = rclpy.create_node(name)
         self.T, self.k = T, 0
-        self.pubs = [self.node.create_publisher(WrenchStamped, m.foot_topic(f, "actuator_force"),
+        self.pubs = [self.node.create_publisher(WrenchStamped, m.actuator_topic(f, "actuator_force"),
                                                 m.LOCKSTEP_QOS) for f in FEET]
 
     def send(self, n: int = 1) -> None:

@@ -45,6 +45,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..block_kinds import (ACTUATOR_FORCE, ACTUATOR_SIGNALS, JOINT_STATE, OBSERVABLES,
+                           answer_topics)
 from .errors import BagError
 
 NAMESPACE = "avc"
@@ -64,10 +66,12 @@ TOPIC_TYPES = {
     "/clock": "rosgraph_msgs/msg/Clock",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }
-#: the topics with one message per sample of the run (rotor_avc.bag.sequence)
-SAMPLED = re.compile(r"^(/[^/]+/)?(foot/[^/]+/(acceleration|velocity|displacement|"
-                     r"actuator_force)|rotor/joint_state|plant/observables|plant/test_signal|"
-                     r"harmonic/forces|balancer/command)$|^/clock$")
+#: the topics with one message per sample of the run: the plant's and every answering block's
+#: (rotor_avc.block_kinds)
+_PLANT_SAMPLED = ACTUATOR_SIGNALS + (JOINT_STATE, OBSERVABLES, "plant/test_signal")
+SAMPLED = re.compile(r"^(/[^/]+/)?(" + "|".join(
+    re.escape(t).replace(r"\{id\}", "[^/]+") for t in _PLANT_SAMPLED + answer_topics())
+    + r")$|^/clock$")
 
 
 #: PlotJuggler's ROS 2 parser reads arrays of at most its "maximum array size" (default 100)
@@ -90,17 +94,22 @@ def topic(name: str, namespace: str = NAMESPACE) -> str:
     return name if name.startswith("/") else f"/{namespace.strip('/')}/{name}"
 
 
-#: foot measurement kind -> (topic kind, field path of the vector holding the axis component)
-FOOT_SIGNALS = {"acceleration": "accel.linear", "velocity": "twist.linear",
+#: an actuator signal's kind -> the field path of the vector holding the axis component
+SIGNAL_FIELDS = {"acceleration": "accel.linear", "velocity": "twist.linear",
                 "displacement": "point"}
 
 
-def foot_topic(foot_id: str, kind: str, namespace: str = NAMESPACE) -> str:
-    """``/avc/foot/<id>/<kind>``: acceleration, velocity, displacement or actuator_force."""
-    if kind not in tuple(FOOT_SIGNALS) + ("actuator_force",):
-        raise BagError("(topic)", f"unknown foot topic kind {kind!r}",
-                       fix="use acceleration, velocity, displacement or actuator_force")
-    return topic(f"foot/{foot_id}/{kind}", namespace)
+#: an actuator's topics by kind (rotor_avc.block_kinds): its signals and its force
+ACTUATOR_TOPICS = {t.rsplit("/", 1)[1]: t for t in ACTUATOR_SIGNALS + (ACTUATOR_FORCE,)}
+
+
+def actuator_topic(actuator_id: str, kind: str, namespace: str = NAMESPACE) -> str:
+    """``/avc/foot/<id>/<kind>``: an actuator's acceleration, velocity, displacement or
+    actuator_force (``foot/`` is the actuators' topic prefix)."""
+    if kind not in ACTUATOR_TOPICS:
+        raise BagError("(topic)", f"unknown actuator topic kind {kind!r}",
+                       fix="use " + ", ".join(ACTUATOR_TOPICS))
+    return topic(ACTUATOR_TOPICS[kind].format(id=actuator_id), namespace)
 
 
 def message_type(full_topic: str, namespace: str = NAMESPACE) -> str:
@@ -176,9 +185,9 @@ def foot_signal(foot_id: str, kind: str, time_s, values, axis: str = "z",
                 namespace: str = NAMESPACE) -> Stream:
     """``foot/<id>/<kind>``: the foot's acceleration, velocity or displacement (axis component)."""
     t = to_ns(time_s)
-    fields = {f"{FOOT_SIGNALS[kind]}.{axis}": _check_len(f"{foot_id} {kind}", values, len(t)),
+    fields = {f"{SIGNAL_FIELDS[kind]}.{axis}": _check_len(f"{foot_id} {kind}", values, len(t)),
               **stamp_fields("header.stamp", t)}
-    return Stream(foot_topic(foot_id, kind, namespace), TOPIC_TYPES["foot/{id}/" + kind], t,
+    return Stream(actuator_topic(foot_id, kind, namespace), TOPIC_TYPES["foot/{id}/" + kind], t,
                   {"header": {"frame_id": f"foot_{foot_id}"}}, fields)
 
 
@@ -195,7 +204,7 @@ def actuator_force(foot_id: str, time_s, force_n, stamp_s=None, axis: str = "z",
     _check_len("stamp_s", stamp, len(t))
     fields = {f"wrench.force.{axis}": _check_len(f"{foot_id} force", force_n, len(t)),
               **stamp_fields("header.stamp", stamp)}
-    return Stream(foot_topic(foot_id, "actuator_force", namespace),
+    return Stream(actuator_topic(foot_id, "actuator_force", namespace),
                   TOPIC_TYPES["foot/{id}/actuator_force"], t,
                   {"header": {"frame_id": f"foot_{foot_id}"}}, fields)
 

@@ -133,7 +133,7 @@ class FootController(Node):
         self._input(foot, ns)
         self.force = m.Force(foot, self.axis)
         self.pub = taps.publisher(self, m.STAMPED_TYPES["actuator_force"],
-                                         m.foot_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
+                                  m.actuator_topic(foot, "actuator_force", ns), m.LOCKSTEP_QOS)
         self.sub = self.create_subscription(
             self.msg_type, self.topic, self._on_measurement, m.MEASUREMENT_QOS[self.qos_name],
             raw=True, event_callbacks=SubscriptionEventCallbacks(
@@ -169,7 +169,7 @@ class FootController(Node):
         else:
             self.msg_type, self.value_axis, self.skip = m.MEASUREMENT_TYPES[self.kind], self.axis, 0
             self.factor = 1.0
-            default_topic = m.foot_topic(foot, self.kind, ns)
+            default_topic = m.actuator_topic(foot, self.kind, ns)
         self.topic = p["measurement_topic"] or default_topic
         external = p["input"] != "stamped" or bool(p["measurement_topic"])
         self.qos_name = p["measurement_qos"]

@@ -2,10 +2,12 @@
 the launch-free runner (rotor_avc.nodes.graph, ``python -m ... --ros-args -p``) and the launch
 file (``launch/rotor_avc.launch.py``, ``ros2 launch rotor_avc rotor_avc.launch.py``).
 
-A run of a scenario has the recorder first, one ``foot_controller`` per controlled foot, the
-``synchronous_controller`` for a feed-forward scenario, the ``harmonic_controller`` for
-``simulation.harmonic``, the ``balancer`` when the scenario has one, and the ``plant_simulator``
-last, in lockstep with ``wait_for_recorder``. Every node gets the scenario config file itself as
+A run of a scenario has the recorder first, then the nodes of the answering block kinds the
+scenario has (rotor_avc.block_kinds, in their declared order: one ``foot_controller`` per
+controlled actuator, the ``synchronous_controller`` for a feed-forward scenario, the
+``harmonic_controller`` for ``simulation.harmonic``, the ``balancer`` when the scenario has one),
+and the ``plant_simulator`` last, in lockstep with ``wait_for_recorder`` and told which kinds to
+wait for. Every node gets the scenario config file itself as
 its ``scenario`` parameter (the one parameter file of the run). Free of rclpy: the launch file
 and its test read it without a ROS installation.
 """
@@ -45,17 +47,15 @@ def graph_nodes(scenario, bag: str | Path, plant_params: dict | None = None,
     if namespace:
         common["namespace"] = namespace
     specs = [NodeSpec(RECORDER, "recorder", {**common, "path": str(bag)})]
-    for foot in scenario.machine.controllers:
-        specs.append(NodeSpec(f"foot_controller_{foot}", "foot_controller",
-                              {**common, "foot_id": foot}))
-    if scenario.feedforward_actuators():
-        specs.append(NodeSpec("synchronous_controller", "synchronous_controller", dict(common)))
     plant = {**common, "wait_for_recorder": RECORDER}
-    if scenario.use_harmonic:
-        specs.append(NodeSpec("harmonic_controller", "harmonic_controller", dict(common)))
-        plant["harmonic"] = True
-    if scenario.use_balancer:
-        specs.append(NodeSpec("balancer", "balancer", dict(common)))
-        plant["balancer"] = True
+    for kind, ids in scenario.block_kinds().items():
+        for actuator in ids:
+            if kind.node_per_actuator:
+                specs.append(NodeSpec(f"{kind.node}_{actuator}", kind.node,
+                                      {**common, kind.id_param: actuator}))
+            else:
+                specs.append(NodeSpec(kind.node, kind.node, dict(common)))
+        if kind.plant_flag:
+            plant[kind.plant_flag] = True
     specs.append(NodeSpec("plant_simulator", "plant_simulator", {**plant, **(plant_params or {})}))
     return specs

@@ -35,7 +35,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from ..bag.cdr import CdrCodec, Layout
 from ..bag.msgdefs import DEFINITIONS, known_specs
-from ..bag.topics import FOOT_SIGNALS, NAMESPACE, foot_topic, topic  # noqa: F401  (re-exported)
+from ..bag.topics import SIGNAL_FIELDS, NAMESPACE, actuator_topic, topic  # noqa: F401  (re-exported)
 from ..bag.topics import check_array_size
 from .qos import (DIAGNOSTICS_QOS, LOCKSTEP_DEPTH, LOCKSTEP_QOS,  # noqa: F401  (re-exported)
                   MEASUREMENT_QOS, RECORDER_MARGIN, RELIABLE_QOS, SENSOR_QOS)
@@ -55,7 +55,7 @@ _U32 = struct.Struct("<I")
 _F64 = struct.Struct("<d")
 _CDR_LE = 1                     # second byte of the encapsulation header 00 01 00 00
 #: the Vector3 (Point) field that carries the value of each stamped kind
-VALUE_FIELDS = {**FOOT_SIGNALS, "actuator_force": "wrench.force"}
+VALUE_FIELDS = {**SIGNAL_FIELDS, "actuator_force": "wrench.force"}
 _SPECS = known_specs()
 
 

@@ -26,17 +26,18 @@ class RealtimeMixin:
         A controller silent for controller_timeout_s gets the fault policy (hold, zero: the
         samples are counted in the lockstep account) or, with ``wait``, ends the run."""
         wall = time.monotonic()
-        for foot, t_last in self.last_force_time.items():
-            if self.book.expire(foot, wall - (self.t_start if t_last is None else t_last)):
+        for actuator, t_last in self.last_force_time.items():
+            if self.book.expire(actuator, wall - (self.t_start if t_last is None else t_last)):
                 if self.p["fault_policy"] == "wait":
-                    self.gone[foot] = f"silent at sample {self.k}: {self.book.reason(foot)}"
-                    self._fault(f"{self._who(foot)}: {self.book.reason(foot)}; ending the run "
+                    reason = self.book.reason(actuator)
+                    self.gone[actuator] = f"silent at sample {self.k}: {reason}"
+                    self._fault(f"{self._who(actuator)}: {reason}; ending the run "
                                 f"(exit status {EXIT_NODE_LEFT}; fault_policy hold or zero runs "
                                 "on without it)")
                     self.exit_status = EXIT_NODE_LEFT
                     self._finish(complete=False)
                     return
-                self._fault(f"{foot}: {self.book.reason(foot)}")
+                self._fault(f"{actuator}: {self.book.reason(actuator)}")
         if self.book.absent():
             self.book.substituted.add(self.k)
         u = forces_from_answers(self.stepper, {f: self.book.held(f, 0.0) for f in self.driven})

@@ -22,11 +22,8 @@ class RecorderWindowMixin:
             return []
         ns = self.p["namespace"]
         own = [pub for pub, _, _ in self.meas] + [self.pub_joint, self.pub_clock, self.pub_obs]
-        others = [m.foot_topic(foot, "actuator_force", ns) for foot in self.driven]
-        if self.p["balancer"]:
-            others += [m.topic("balancer/command", ns), m.topic("balancer/estimate", ns)]
-        if self.p["harmonic"]:
-            others += [self.harmonic_topic, m.topic("harmonic/status", ns)]
+        others = [m.actuator_topic(actuator, "actuator_force", ns) for actuator in self.driven]
+        others += [m.topic(t, ns) for kind in self.waited_kinds for t in kind.recorded_topics()]
         missing = []
         if self.count_publishers(self.progress_topic) < 1:
             return ["(no recorder progress yet)"]

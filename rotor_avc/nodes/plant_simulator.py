@@ -66,6 +66,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..block_kinds import KINDS
 from ..errors import RotorAvcError
 from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_from_run
 from . import messages as m
@@ -97,20 +98,20 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         self.stepper = sc.stepper()
         plant = self.stepper.plant
         self.axis = {a.id: a.axis for a in plant.actuators}
-        self.feedback = {foot: ctrl.feedback for foot, ctrl in sc.machine.controllers.items()}
+        self.feedback = {a: ctrl.feedback for a, ctrl in sc.machine.controllers.items()}
         # actuators whose force the plant waits for: feedback controllers and the feed-forward
         # node's (synchronous_controller, Sci. Rep. 2023), which answers rotor/joint_state
         ff = sc.feedforward_actuators()
         self.driven = tuple(self.feedback) + tuple(ff)
         ns = self.p["namespace"]
         lay = self.stepper.layout
-        # foot measurements: acceleration of every actuated foot, plus each controller's signal
+        # actuator signals: the acceleration at every actuator, plus each controller's signal
         self.meas = []                       # (publisher, reusable message, index in y)
         for act in plant.actuators:
             kinds = {"acceleration", self.feedback.get(act.id, "acceleration")}
             for kind in sorted(kinds):
                 self.meas.append((taps.publisher(self, m.MEASUREMENT_TYPES[kind],
-                                                        m.foot_topic(act.id, kind, ns),
+                                                        m.actuator_topic(act.id, kind, ns),
                                                         m.LOCKSTEP_QOS),
                                   m.Measurement(kind, act.id, act.axis),
                                   lay.feedback_index(act.id, kind)))
@@ -122,19 +123,20 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         self.pub_obs = taps.publisher(self, Float64MultiArray, m.topic("plant/observables", ns),
                                              m.LOCKSTEP_QOS)
         self.pub_diag = taps.publisher(self, m.DiagnosticArray, "/diagnostics", m.DIAGNOSTICS_QOS)
-        responders = (self.driven + (("balancer",) if self.p["balancer"] else ())
-                      + (("harmonic",) if self.p["harmonic"] else ()))
+        # the machine-wide kinds this plant waits for (plant parameters harmonic, balancer)
+        self.waited_kinds = tuple(k for k in KINDS if k.plant_flag and self.p[k.plant_flag])
+        responders = self.driven + tuple(k.name for k in self.waited_kinds)
         self._setup_harmonic(sc, ns)
         ids = [a.id for a in plant.actuators]
         self._fed = {ids.index(a) for a in self.driven}
         self.book = AnswerBook(responders, self.p["fault_policy"], self.p["controller_timeout_s"],
                                self.p["resend_after_s"])
-        self.force_topics = {foot: m.foot_topic(foot, "actuator_force", ns) for foot in self.driven}
+        self.force_topics = {a: m.actuator_topic(a, "actuator_force", ns) for a in self.driven}
         self.command_topic = m.topic("balancer/command", ns)
-        for foot in self.driven:
-            self.create_subscription(WrenchStamped, m.foot_topic(foot, "actuator_force", ns),
-                                     lambda data, f=foot: self._on_force(f, data), m.LOCKSTEP_QOS,
-                                     raw=True)
+        for actuator in self.driven:
+            self.create_subscription(WrenchStamped, self.force_topics[actuator],
+                                     lambda data, a=actuator: self._on_force(a, data),
+                                     m.LOCKSTEP_QOS, raw=True)
         command = ["time_s"] + [f"{e.name}_{part}" for e in plant.excitations
                                 for part in ("re", "im")]
         self.command_label, self.command_size = ",".join(command), len(command)
@@ -144,11 +146,8 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         # the recorder handshake: what it has taken, against what the run has sent
         self.progress_topic = m.topic(m.RECORDER_PROGRESS, ns)
         self.recorder_taken: dict[str, int] = {}
-        self.received = {m.foot_topic(f, "actuator_force", ns): 0 for f in self.driven}
-        if self.p["balancer"]:
-            self.received[m.topic("balancer/command", ns)] = 0
-        if self.p["harmonic"]:
-            self.received[self.harmonic_topic] = 0
+        self.received = {topic: 0 for topic in self.force_topics.values()}
+        self.received.update({m.topic(k.answer_topic, ns): 0 for k in self.waited_kinds})
         self.allowance = self.p["recorder_window"]
         self.stalled_since = None            # wall time the plant began waiting for the recorder
         self.recorder_lagging = False        # lockstep: a sample is held back for the recorder
@@ -157,7 +156,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         if self.p["wait_for_recorder"]:
             self.create_subscription(Float64MultiArray, self.progress_topic, self._on_progress,
                                      m.LOCKSTEP_QOS, raw=True)
-        self.last_force_time = {foot: None for foot in self.driven}
+        self.last_force_time = {actuator: None for actuator in self.driven}
         self.timing = LoopTiming(self.T if self.p["mode"] == "realtime" else None)
         self.schedule = Schedule(self.T)
         check_run_memory(self.stepper, self.n_steps, self.p["balancer"])
@@ -252,18 +251,18 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         if timed:
             self.timing.stop()
 
-    def _on_force(self, foot: str, data: bytes) -> None:
+    def _on_force(self, actuator: str, data: bytes) -> None:
         try:
-            stamp, value = m.stamped_value(data, self.axis[foot])   # raw: messages.StampedVector
+            stamp, value = m.stamped_value(data, self.axis[actuator])  # raw: m.StampedVector
         except ValueError as exc:
             self._fault(f"{foot}: actuator force ignored: {exc}")
             return
-        self.last_force_time[foot] = time.monotonic()
-        self.received[self.force_topics[foot]] += 1
+        self.last_force_time[actuator] = time.monotonic()
+        self.received[self.force_topics[actuator]] += 1
         if self.p["mode"] == "realtime":
-            self.book.latest(foot, value)
+            self.book.latest(actuator, value)
             return
-        if self.started and not self.finished and self.book.receive(foot, stamp, value):
+        if self.started and not self.finished and self.book.receive(actuator, stamp, value):
             self._advance()
 
     def _on_balancer(self, data: bytes) -> None:
@@ -286,8 +285,8 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
             self._advance()
 
     def _forces(self) -> np.ndarray:
-        u = forces_from_answers(self.stepper, {foot: self.book.value(foot, 0.0)
-                                               for foot in self.driven})
+        u = forces_from_answers(self.stepper, {actuator: self.book.value(actuator, 0.0)
+                                               for actuator in self.driven})
         if self.harmonic_at:               # as rotor_avc.sim.loop.harmonic_forces adds them
             for pos, f in zip(self.harmonic_at, self.book.value("harmonic", None) or
                               [0.0] * len(self.harmonic_at)):

@@ -6,6 +6,7 @@ namespace is seen first (rotor_avc.nodes.namespace_guard); responders or a recor
 after ``discovery_timeout_s`` are said, and end the run or start it with the fault policy."""
 from __future__ import annotations
 
+from ..block_kinds import FEEDFORWARD, JOINT_STATE, OBSERVABLES
 from . import messages as m
 from .plant_params import EXIT_NODE_LEFT, EXIT_RECORDER_LOST
 
@@ -26,16 +27,16 @@ class PlantStartupMixin:
         for pub, msg, idx in self.meas:       # each controller's own signal must be heard
             if self.feedback.get(msg.foot_id) == msg.kind and pub.get_subscription_count() < 1:
                 return False
-        for foot in self.driven:
-            if self.count_publishers(m.foot_topic(foot, "actuator_force", ns)) < 1:
+        for actuator in self.driven:
+            if self.count_publishers(m.actuator_topic(actuator, "actuator_force", ns)) < 1:
                 return False
-        if self.p["balancer"] and self.count_publishers(m.topic("balancer/command", ns)) < 1:
+        if any(self.count_publishers(m.topic(k.answer_topic, ns)) < 1 for k in self.waited_kinds):
             return False
-        if len(self.driven) > len(self.feedback) and self.pub_joint.get_subscription_count() < 1:
-            return False                       # the feed-forward node answers joint_state
-        if self.p["harmonic"] and (self.count_publishers(self.harmonic_topic) < 1
-                                   or self.pub_obs.get_subscription_count() < 1
-                                   or self.pub_joint.get_subscription_count() < 1):
+        # the machine-wide kinds (and the feed-forward node) must hear the topics they answer
+        feedforward = len(self.driven) > len(self.feedback)
+        kinds = self.waited_kinds + ((FEEDFORWARD,) if feedforward else ())
+        trigger = {JOINT_STATE: self.pub_joint, OBSERVABLES: self.pub_obs}
+        if any(trigger[t].get_subscription_count() < 1 for k in kinds for t in k.triggers):
             return False
         return not self._unrecorded()
 
@@ -54,7 +55,7 @@ class PlantStartupMixin:
         self.stillness.reset()
         if now - self.t_created > self.p["discovery_timeout_s"]:
             missing = [f for f in self.driven if self.count_publishers(
-                m.foot_topic(f, "actuator_force", self.p["namespace"])) < 1]
+                m.actuator_topic(f, "actuator_force", self.p["namespace"])) < 1]
             unrecorded = self._unrecorded()
             if missing and self.p["fault_policy"] == "wait" and self.p["mode"] == "lockstep":
                 for f in missing:

@@ -29,7 +29,7 @@ class PlantWatchMixin:
             return self.command_topic
         if name == "harmonic":
             return self.harmonic_topic
-        return m.foot_topic(name, "actuator_force", ns)
+        return m.actuator_topic(name, "actuator_force", ns)
 
     def _who(self, name: str) -> str:
         """``foot_controller_DL (DL)``: the nodes that answered for responder ``name``."""

@@ -60,6 +60,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from ..bag.reader import BagReader
+from ..block_kinds import KINDS
 from ..errors import RotorAvcError
 from . import messages as m
 from . import taps
@@ -103,11 +104,10 @@ class AnswerRule:
         return cls(re.escape(trigger), answer.replace("{", "{{").replace("}", "}}"))
 
 
-DEFAULT_RULES = (
-    AnswerRule(r"(?P<ns>.*)/foot/(?P<id>[^/]+)/(acceleration|velocity|displacement)",
-               "{ns}/foot/{id}/actuator_force"),
-    AnswerRule(r"(?P<ns>.*)/plant/observables", "{ns}/balancer/command"),
-)
+#: the answers of the replayable block kinds (a foot signal -> that actuator's force, the
+#: observables -> the balancer's command)
+DEFAULT_RULES = tuple(AnswerRule(pattern, answer) for kind in KINDS if kind.replayable
+                      for pattern, answer in kind.replay_rules())
 
 
 @dataclass(frozen=True)

@@ -45,8 +45,9 @@ class SynchronousController(FeatureNode):
         self.outputs = []
         for act_id in self.generator.actuator_ids:
             force = m.Force(act_id, plant.actuator(act_id).axis)
-            self.outputs.append((taps.publisher(self, m.STAMPED_TYPES["actuator_force"], m.foot_topic(
-                act_id, "actuator_force", ns), m.LOCKSTEP_QOS), force))
+            topic = m.actuator_topic(act_id, "actuator_force", ns)
+            self.outputs.append((taps.publisher(self, m.STAMPED_TYPES["actuator_force"], topic,
+                                                m.LOCKSTEP_QOS), force))
         self.create_subscription(JointState, m.topic("rotor/joint_state", ns), self._on_joint,
                                  m.LOCKSTEP_QOS, raw=True)
         self.forces = [0.0] * len(self.outputs)
