@@ -256,3 +256,17 @@ def test_every_analysis_of_a_scenario_uses_the_runs_rate(config, rate_hz):
     assert machine.sample_rate_hz == rate_hz
     loop = machine_sampled_loop(machine)
     assert {tf.sample_period_s for tf in loop.controllers.values()} == {1.0 / rate_hz}
+
+
+def test_a_loop_with_inputs_needs_no_excitation(case3):
+    """A plant without unbalance excitations (a machine modelled for its loops only) gets the
+    same loop with added inputs, and an empty excitation column block."""
+    import dataclasses
+    loop = machine_sampled_loop(case3, 1 / 5000)
+    bare = dataclasses.replace(loop, plant=dataclasses.replace(case3.plant, excitations=()))
+    outputs = ["foot_DL_az", "bearing_D_vz"]
+    full = loop.with_inputs(2 * np.pi * 20, 2 * np.pi * 20, ["DL"], outputs)
+    empty = bare.with_inputs(2 * np.pi * 20, 2 * np.pi * 20, ["DL"], outputs)
+    for name in ("A", "B", "C"):
+        assert np.array_equal(getattr(empty, name), getattr(full, name)), name
+    assert empty.De.shape == (2, 0) and full.De.shape[0] == 2

@@ -287,7 +287,7 @@ class SampledLoop:
             rows.append(self._measurement(row, order, asm.dp, asm.held_forces, asm.excitations,
                                           Nt))
         C = np.array([r for r, _ in rows]).reshape(-1, Nt)
-        De = np.array([t for _, t in rows]).reshape(-1, asm.excitations.shape[1])
+        De = np.array([t for _, t in rows]).reshape(len(rows), asm.excitations.shape[1])
         return LoopWithInput(asm.A, B, C, self._n_drift(), asm.Be, De)
 
     def _n_drift(self) -> int:
