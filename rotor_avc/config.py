@@ -15,7 +15,7 @@ import re
 import sys
 from pathlib import Path
 
-from .errors import ConfigError
+from .errors import ConfigError, did_you_mean
 from .section import Section
 from .yaml_reading import parse, read_text
 
@@ -53,9 +53,10 @@ def find_config(name: str | os.PathLike) -> Path:
         for candidate in candidates:
             if (folder / candidate).is_file():
                 return folder / candidate
-    shipped = sorted({p.name for d in config_dirs() for p in d.glob("*.yaml")})
+    shipped = sorted({p.stem for d in config_dirs() for p in d.glob("*.yaml")})
     raise ConfigError(
-        str(name), "no such file, and no shipped config of that name",
+        str(name), "no such file, and no shipped config of that name"
+        + did_you_mean(Path(name).stem, shipped),
         fix="give a path to a YAML file or one of: " + ", ".join(shipped))
 
 

@@ -1,4 +1,15 @@
 """User-facing errors: every one names the offending field and how to fix it."""
+from __future__ import annotations
+
+import difflib
+from typing import Iterable
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for the closest of ``choices`` to a misspelt ``word`` (difflib's
+    ratio >= 0.6), else an empty string."""
+    close = difflib.get_close_matches(str(word), sorted(map(str, choices)), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 class RotorAvcError(Exception):

@@ -6,11 +6,10 @@ them), so the rooms that read configurations never import the YAML layer.
 """
 from __future__ import annotations
 
-import difflib
 import math
 from typing import Any, Iterable
 
-from .errors import ConfigError
+from .errors import ConfigError, did_you_mean
 
 _MISSING = object()
 #: numbers in a config beyond this magnitude are refused (no SI quantity of a machine is near it)
@@ -56,9 +55,7 @@ class Section:
         allowed = set(allowed)
         for key in self.data:
             if key not in allowed:
-                close = difflib.get_close_matches(str(key), sorted(allowed), n=1)
-                raise self.error(str(key), "unknown key" + (f" (did you mean {close[0]!r}?)"
-                                                            if close else ""),
+                raise self.error(str(key), "unknown key" + did_you_mean(key, allowed),
                                  fix="use one of: " + ", ".join(sorted(allowed)))
 
     # -- typed accessors --------------------------------------------------------------------

@@ -1,5 +1,5 @@
 """Piezo stack limits (stroke, blocked force, voltage, bandwidth) and what they leave of the IL:
-the speed above which the quantified force saturates and the IL that remains (issue 9)."""
+the speed above which the quantified force saturates and the IL that remains."""
 import numpy as np
 import pytest
 

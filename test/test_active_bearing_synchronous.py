@@ -1,5 +1,5 @@
 """The 1x force generator in time: at each of the paper's four speeds the sampled run (10 kHz,
-the plant block of rotor_avc.sim) matches the frequency-domain RMS within 1 % (issue 9), and the
+the plant block of rotor_avc.sim) matches the frequency-domain RMS within 1 %, and the
 block's hold/delay compensation, table interpolation and range handling."""
 from collections import deque
 

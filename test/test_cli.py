@@ -1,4 +1,4 @@
-"""The command-line contract that users and checks depend on (issue 2 section 5)."""
+"""The command-line contract that users and checks depend on."""
 import csv
 import json
 import subprocess
@@ -79,3 +79,28 @@ def test_bad_arguments_are_refused():
     assert r.returncode == 2 and "START:STOP:N" in r.stderr
     r = run_cli("poles", "foot_mount_case1", "--speed-hz", "-3")
     assert r.returncode == 2 and ">= 0" in r.stderr
+
+
+def test_version_is_the_packages(capsys):
+    """`--version` prints the installed version, the one package.xml and setup.py declare."""
+    import re
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    declared = re.search(r"<version>([^<]+)</version>", (root / "package.xml").read_text())[1]
+    assert re.search(rf'version="{re.escape(declared)}"', (root / "setup.py").read_text())
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.strip() == f"rotor-avc {declared}"
+
+
+def test_misspelt_names_get_the_closest_one(capsys):
+    assert main(["poles", "foot_mount_cas3"]) == 2
+    assert "did you mean 'foot_mount_case3'?" in capsys.readouterr().err
+    from rotor_avc.cli.controller import controlled_foot
+    from rotor_avc.errors import ModelError
+    from rotor_avc.machine import load_machine
+    machine = load_machine("foot_mount_case3")
+    assert controlled_foot(machine, "dl") == "DL"               # ids compared without case
+    with pytest.raises(ModelError, match=r"did you mean 'NL'\?.*controlled feet: DL, DR, NL"):
+        controlled_foot(machine, "NLL")

@@ -1,6 +1,6 @@
 """`rotor-avc compare` on bags of the in-process lockstep loop (Werner 2021 case 3, 5 kHz): the
 stepped-speed 1x response and a broadband FRF agree with the sampled-loop model within the
-tolerances of issue 6, the report says so, and a bag whose configuration does not describe its
+tolerances of the comparison, the report says so, and a bag whose configuration does not describe its
 data fails with exit status 1."""
 import json
 

@@ -130,8 +130,8 @@ def test_time_run_of_the_blocks_stays_on_the_analytical_steady_state(case3, dela
 
 
 def test_acceleration_feedthrough_gain_limit_is_analytic(case3):
-    """P on acceleration: u_k = -K s M^-1 P u_{k-1} + ... diverges once K rho(S) > 1 (digest 001
-    section 8's mechanism); with fast sampling the search must find K = 1/rho(S)."""
+    """P on acceleration: u_k = -K s M^-1 P u_{k-1} + ... diverges once K rho(S) > 1 (Werner 2019
+    Sec. 8's mechanism); with fast sampling the search must find K = 1/rho(S)."""
     p = case3.plant
     ids = list(case3.controllers)
     S = np.array([[p.actuator(i).sensor_row @ np.linalg.solve(p.mass, p.actuator(j).force_vector)
@@ -203,7 +203,7 @@ def test_unstable_loop_grows_in_time_as_its_largest_pole(case3):
 @pytest.fixture(scope="module")
 def seed001_limits():
     """Largest stable gain (N/m, N s/m, kg) of Werner 2019's P controllers per rate, at 3600 rpm
-    with w_F = Omega and Tustin filters, no extra delay (digest 001 section 8's setup)."""
+    with w_F = Omega and Tustin filters, no extra delay (Werner 2019 Sec. 8 setup)."""
     speed = 2 * np.pi * 3600 / 60
     out = {}
     for kind in ("acceleration", "displacement", "velocity"):

@@ -1,4 +1,4 @@
-"""Werner 2019's stated results (digest 001 section 6) with the bent-rotor excitation over 300-4500
+"""Werner 2019's stated results (Sec. 6) with the bent-rotor excitation over 300-4500
 rpm: open-loop housing resonances, their shifts under displacement and acceleration feedback,
 their reductions under velocity feedback, and stability over the studied ranges."""
 import math

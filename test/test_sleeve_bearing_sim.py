@@ -1,5 +1,5 @@
 """Werner 2019 in time: the in-process lockstep loop with velocity feedback against the analytical
-models (issue 8), and the sample-rate limits of the gains in a digital loop (digest 001 section 8)."""
+models, and the sample-rate limits of the gains in a digital loop (Werner 2019 Sec. 8)."""
 import copy
 import math
 

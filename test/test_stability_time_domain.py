@@ -1,4 +1,4 @@
-"""The time simulator against the Werner 2017 eigen-analysis (issue 10): on the digest's very soft
+"""The time simulator against the Werner 2017 eigen-analysis: on the very soft
 demo foundation (threshold ~4426 rpm, whirl ~386.8 rad/s) a tiny disturbance decays below the
 threshold and grows above it at the rate of the critical eigenvalue's real part, with the
 loss-factor damping frozen at the converged whirl frequency (DESIGN.md 2) -- open loop, and with

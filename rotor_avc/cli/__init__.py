@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
 import os
 import sys
 
@@ -34,6 +35,14 @@ COMMANDS = [
 MODULES = {"config": "config_cmd"}
 
 
+def version() -> str:
+    """The installed package's version (its metadata: pip and colcon installs alike)."""
+    try:
+        return importlib.metadata.version("rotor_avc")
+    except importlib.metadata.PackageNotFoundError:
+        return "(not installed: run from a source tree without `pip install`)"
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The parser of every command, or of the command ``only`` (each command module imports
     what it runs, so one command's parser starts without the others' imports)."""
@@ -43,6 +52,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
                     "simulation, bags and reports.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="Run `rotor-avc COMMAND --help` for a command's options and an example.")
+    parser.add_argument("--version", action="version", version=f"rotor-avc {version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS if only is None else [only]:
         mod = importlib.import_module(f"{__name__}.{MODULES.get(name, name.replace('-', '_'))}")

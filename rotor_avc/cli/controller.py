@@ -12,7 +12,7 @@ from ..analysis.loop_margins import (LoopAnalysis, analyse_loop, continuous_loop
 from ..analysis.poles import machine_poles
 from ..analysis.sampled_loop import SampledLoop, machine_sampled_loop
 from ..control.block import build_digital_controllers
-from ..errors import ModelError
+from ..errors import ModelError, did_you_mean
 from ..interactive.jsonable import jsonable
 from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
@@ -52,11 +52,20 @@ def add_arguments(p) -> None:
                    help="print one JSON document (margins, gain range) instead of the text")
 
 
+def controlled_foot(machine, given: str) -> str:
+    """The controlled actuator ``given`` names (ids compared without case), or a ModelError
+    naming the controlled ones and the closest."""
+    by_case = {foot.casefold(): foot for foot in machine.controllers}
+    if given.casefold() in by_case:
+        return by_case[given.casefold()]
+    known = ", ".join(machine.controllers) or "none"
+    raise ModelError(f"--foot {given}: no controller at that foot"
+                     f"{did_you_mean(given, machine.controllers)}; controlled feet: {known}")
+
+
 def run(args) -> int:
     machine = load_machine(args.config)
-    if args.foot not in machine.controllers:
-        known = ", ".join(machine.controllers) or "none"
-        raise ModelError(f"--foot {args.foot}: no controller at that foot; controlled feet: {known}")
+    args.foot = controlled_foot(machine, args.foot)
     T = 1.0 / (machine.sample_rate_hz if args.rate_hz is None else args.rate_hz)
     speed = 2 * math.pi * args.speed_hz
     w_F = machine_poles(machine, speed).w_F
