@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import sys
 import time
 from pathlib import Path
 
@@ -26,12 +24,12 @@ import numpy as np
 from ..compare.comparison import compare_bag
 from ..closed_loop.frf import unbalance_frf
 from ..analysis.poles import machine_poles
-from ..errors import RotorAvcError
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
 from ..output_files import make_folder, write_text
 from .compare import report
 from .common import output_folder
+from .run import record_graph
 
 NAME = "demo"
 HELP = ("The main job: Werner 2021 pole tables and FRFs, then the machine as a ROS graph (plant, "
@@ -115,27 +113,13 @@ def record(scenario: str, bag: Path, logs: Path, in_process: bool,
            layout: str = "processes") -> Path:
     """Run one scenario through the ROS graph (or in-process) and record it to ``bag``; prints
     the messages published and recorded per topic."""
-    try:
-        if in_process:
-            raise ImportError
-        from ..nodes.graph import run_graph
-    except ImportError:
-        return _record_in_process(scenario, bag, "requested" if in_process else
-                                  "rclpy is not installed")
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    print(f"{scenario}: starting the graph ({layout}; logs in {logs})")
-    result = run_graph(scenario, bag, logs, progress=_progress, layout=layout)
-    sys.stderr.write("\n")
-    print(f"{scenario}: {result.steps} lockstep samples in {result.wall_s:.1f} s "
-          f"({result.steps / max(result.wall_s, 1e-9):.0f} samples/s, start-up included) -> {bag}")
-    print(f"  {'topic':<32} {'published':>10} {'recorded':>10}")
-    for topic, c in sorted(result.counts.items()):
-        published = "?" if c["published"] is None else c["published"]
-        print(f"  {topic:<32} {published:>10} {c['recorded']:>10}")
-    lost = result.lost()
-    if lost:
-        raise RotorAvcError(f"{bag}: messages were lost ({lost}); see the logs in {logs}")
-    return bag
+    if not in_process:
+        try:
+            import rclpy  # noqa: F401  (the graph's nodes need it)
+        except ImportError:
+            return _record_in_process(scenario, bag, "rclpy is not installed")
+        return record_graph(scenario, bag, logs, layout)
+    return _record_in_process(scenario, bag, "requested")
 
 
 def _record_in_process(scenario: str, bag: Path, why: str) -> Path:
@@ -148,12 +132,6 @@ def _record_in_process(scenario: str, bag: Path, why: str) -> Path:
     if bag.exists():
         bag.unlink()
     return write_run_bag(bag, sc, ts)
-
-
-def _progress(k: int, n: int) -> None:
-    frac = k / max(n, 1)
-    sys.stderr.write(f"\r  [{'#' * int(30 * frac):<30}] {100 * frac:5.1f} % ({k}/{n} samples)")
-    sys.stderr.flush()
 
 
 def reductions(open_loop, closed_loop) -> list[dict]:

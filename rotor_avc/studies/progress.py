@@ -13,11 +13,12 @@ def _clock(seconds: float) -> str:
 
 
 class Progress:
-    """``update(done)`` after each finished batch; the rate counts this run's points only."""
+    """``update(done)`` after each finished batch (of ``unit``: points of a study, samples of a
+    run); the rate counts this run's ones only."""
 
     def __init__(self, total: int, resumed: int = 0, enabled: bool = True, stream=None,
-                 width: int = 30):
-        self.total, self.resumed, self.width = total, resumed, width
+                 width: int = 30, unit: str = "points"):
+        self.total, self.resumed, self.width, self.unit = total, resumed, width, unit
         self.stream = stream or sys.stderr
         self.enabled = enabled and total > 0
         self.tty = self.enabled and self.stream.isatty()
@@ -26,14 +27,14 @@ class Progress:
         self._last_tenth = -1
         self._drawn = False
         if self.enabled and resumed:
-            print(f"resuming: {resumed} of {total} points already done", file=self.stream)
+            print(f"resuming: {resumed} of {total} {unit} already done", file=self.stream)
 
     def line(self, done: int) -> str:
         elapsed = time.perf_counter() - self.start
         new = done - self.resumed
         eta = (self.total - done) * elapsed / new if new > 0 else float("nan")
         fill = int(self.width * done / self.total)
-        return (f"[{'#' * fill}{'.' * (self.width - fill)}] {done}/{self.total} points "
+        return (f"[{'#' * fill}{'.' * (self.width - fill)}] {done}/{self.total} {self.unit} "
                 f"{_clock(elapsed)} elapsed, ETA " + (_clock(eta) if eta == eta else "--:--"))
 
     def update(self, done: int) -> None:
