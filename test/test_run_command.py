@@ -28,7 +28,13 @@ def test_run_records_every_sample_and_prints_the_counts(tmp_path, capfd, layout)
     for topic, c in counts.items():
         row = next(line.split() for line in out.splitlines() if line.split()[:1] == [topic])
         assert row[1:] == [str(c["published"]), str(c["recorded"])]
-    assert (tmp_path / "run_logs").is_dir()
+    logs = tmp_path / "run_logs"
+    if not layout:                       # one process per node: each says it is ready, and how
+        for foot in load_scenario(scenario).machine.controllers:
+            text = (logs / f"foot_controller_{foot}.log").read_text()
+            assert (f"ready: publishes /avc/foot/{foot}/actuator_force, /diagnostics; "
+                    f"subscribes /avc/foot/{foot}/acceleration") in text
+        assert "ready: publishes " in (logs / "plant_simulator.log").read_text()
 
 
 def test_list_params_shows_what_the_run_sets(tmp_path, capsys):

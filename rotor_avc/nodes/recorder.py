@@ -122,6 +122,9 @@ class _Channel:
 class Recorder(Node):
     """The recorder node (see the module docstring)."""
 
+    #: what its ready line says: it subscribes to each topic of the run as discovery shows it
+    subscribes_later = "every topic of the namespace as it appears"
+
     #: no last /diagnostics at the end (it could not be recorded any more); the log says all
     final_diagnostics = False
 

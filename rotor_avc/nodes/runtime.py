@@ -137,6 +137,18 @@ def make_executor(kind: str, context=None):
     return SingleThreadedExecutor(context=context)
 
 
+#: topics every node has (ROS 2's own), left out of its ready line
+_ROS_TOPICS = {"/rosout", "/parameter_events"}
+
+
+def ready_line(node: Node) -> str:
+    """``ready: publishes ...; subscribes ...``: the node's own topics, logged once it spins."""
+    pubs = sorted({p.topic_name for p in node.publishers} - _ROS_TOPICS)
+    subs = sorted({s.topic_name for s in node.subscriptions} - _ROS_TOPICS)
+    return (f"ready: publishes {', '.join(pubs) or 'nothing'}; "
+            f"subscribes {', '.join(subs) or getattr(node, 'subscribes_later', 'nothing')}")
+
+
 def run_node(factory: Callable[[], Node], args=None) -> int:
     """``main()`` of a node: init, build, spin with the node's executor, shut down cleanly.
 
@@ -157,6 +169,7 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         node = factory()
         executor = make_executor(getattr(node, "executor_kind", "events"))
         executor.add_node(node)
+        node.get_logger().info(ready_line(node))
         try:
             while (rclpy.ok() and not signals.stop_requested()
                    and not getattr(node, "exit_requested", False)):
