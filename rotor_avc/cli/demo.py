@@ -5,12 +5,15 @@
 2. The Werner 2021 machine as a ROS graph in lockstep -- plant, three foot controllers (case 3),
    recorder, each its own process (rotor_avc.nodes.graph; ``--composed``: one process) --
    through a stepped run-up that dwells at the six open-loop machine resonances, loops open
-   (case 2) and closed (case 3), each recorded to ``bags/``, with the messages published and
+   (case 2) and closed (case 3), each recorded to ``<out>/bags/``, with the messages published and
    recorded per topic (a run that lost any is an error). Without rclpy the same runs go through the in-process loop (identical
    results, rotor_avc.sim.loop), and the demo says so.
 3. Both bags compared offline against the continuous and sampled-loop models (``rotor-avc
    compare``), and the vibration reduction at each resonance: measured (case 3 vs case 2 bag)
    and predicted by the sampled-loop model at steady state.
+4. One overview page, ``<out>/index.html`` (rotor_avc.reports.demo_page): the 1x response of
+   case 2 against case 3 at each bearing housing with the model curves, the reduction table, the
+   messages published and recorded, the pole tables and links to every report.
 """
 from __future__ import annotations
 
@@ -24,7 +27,9 @@ import numpy as np
 from ..compare.comparison import compare_bag
 from ..closed_loop.frf import unbalance_frf
 from ..analysis.poles import machine_poles
+from ..bag.reader import BagReader
 from ..machine import load_machine
+from ..reports.demo_page import write_demo_page
 from ..reports.frf_files import plot_frf, write_frf_csv
 from ..output_files import make_folder, write_text
 from .compare import report
@@ -34,9 +39,9 @@ from .run import record_graph
 NAME = "demo"
 HELP = ("The main job: Werner 2021 pole tables and FRFs, then the machine as a ROS graph (plant, "
         "three foot controllers, recorder) through a stepped run-up with the loops open and "
-        "closed, both recorded to bags/, compared with the models; prints the vibration "
-        "reduction at each resonance and where the reports are.")
-EXAMPLE = "rotor-avc demo --out out/demo --bags bags"
+        "closed, both recorded to bags, compared with the models; prints the vibration "
+        "reduction at each resonance and writes one overview page, <out>/index.html.")
+EXAMPLE = "rotor-avc demo --out out/demo"
 
 ANALYSIS_CASES = ("foot_mount_case1", "foot_mount_case2", "foot_mount_case3")
 RUNS = {"case2": "scenario_demo_case2", "case3": "scenario_demo_case3"}
@@ -45,7 +50,8 @@ BEARINGS = ("bearing_D_vz", "bearing_D_vy", "bearing_N_vz", "bearing_N_vy")
 
 def add_arguments(p) -> None:
     p.add_argument("--out", type=output_folder, default="out/demo", help="output folder")
-    p.add_argument("--bags", type=Path, default=Path("bags"), help="where the runs are recorded")
+    p.add_argument("--bags", type=Path, default=None,
+                   help="where the runs are recorded (default: <out>/bags)")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--in-process", action="store_true",
                       help="run the scenarios in the in-process loop instead of the ROS graph")
@@ -56,57 +62,67 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     make_folder(args.out)
+    out = args.out.resolve()
+    bags_dir = (args.bags or args.out / "bags").resolve()
     t0 = time.monotonic()
-    summary = {"analysis": analysis(args.out / "analysis")}
+    poles, analysis_files = analysis(out / "analysis")
     print("\n== The Werner 2021 machine in the ROS graph: stepped run-up, loops open and closed")
-    bags = {case: record(scenario, args.bags / f"demo_{case}.mcap", args.out / "logs" / case,
+    bags = {case: record(scenario, bags_dir / f"demo_{case}.mcap", out / "logs" / case,
                          args.in_process, "composed" if args.composed else "processes")
             for case, scenario in RUNS.items()}
-    comps = {}
+    comps, reports = {}, []
     for case, bag in bags.items():
         print(f"\n== Comparison of {bag} with the models")
         comps[case] = compare_bag(bag)
-        files = report(comps[case], bag, args.out / f"compare_{case}")
-        summary[f"compare_{case}"] = {"pass": comps[case].passed, "report": str(files["index"])}
-    summary["reduction"] = reductions(comps["case2"], comps["case3"])
-    write_text(args.out / "summary.json", json.dumps(summary, indent=1))
-    print(f"\nDone in {time.monotonic() - t0:.0f} s. Bags: {', '.join(str(b) for b in bags.values())}")
-    print(f"Reports: {args.out.resolve()}/compare_case2/index.html, .../compare_case3/index.html; "
-          f"pole tables and FRFs in {args.out.resolve()}/analysis; summary.json")
+        reports.append(report(comps[case], bag, out / f"compare_{case}")["index"])
+    rows = reductions(comps["case2"], comps["case3"])
+    counts = {case: _bag_counts(bag) for case, bag in bags.items()}
+    summary = {"analysis": {case: {"stable": all(r.stable for r in per.values())}
+                            for case, per in poles.items()},
+               **{f"compare_{c}": {"pass": comp.passed, "report": str(path)}
+                  for (c, comp), path in zip(comps.items(), reports)},
+               "reduction": rows, "counts": counts}
+    write_text(out / "summary.json", json.dumps(summary, indent=1))
+    index = write_demo_page(out / "index.html", comps, rows, counts, poles,
+                            reports + analysis_files + list(bags.values()) + [out / "summary.json"],
+                            BEARINGS)
+    print(f"\nDone in {time.monotonic() - t0:.0f} s.")
+    for what, path in [("overview", index), *zip(("report, case 2", "report, case 3"), reports),
+                       ("bag, case 2", bags["case2"]), ("bag, case 3", bags["case3"]),
+                       ("pole tables and FRFs", out / "analysis"), ("summary", out / "summary.json")]:
+        print(f"  {what:<22} {path}")
     return 0 if all(c.passed for c in comps.values()) else 1
 
 
-def analysis(out: Path) -> dict:
-    """Pole tables and FRFs of cases 1-3 (the analysis part of the Werner 2021 paper)."""
-    print("== Werner 2021 (Werner 2021): poles and unbalance FRFs, cases 1-3")
+def _bag_counts(bag: Path) -> dict:
+    """The bag's messages published and recorded per topic (its own record of them)."""
+    with BagReader(bag) as reader:
+        return reader.counts or {t: {"published": None, "recorded": i.count}
+                                 for t, i in reader.topics.items()}
+
+
+def analysis(out: Path) -> tuple[dict, list[Path]]:
+    """Poles and FRFs of cases 1-3 (the analysis part of the Werner 2021 paper): the poles per
+    case and speed (for the overview page and poles.json), and the files written."""
+    print("== Werner 2021: poles and unbalance FRFs, cases 1-3")
     make_folder(out)
-    summary = {}
+    poles, files = {}, []
     for case in ANALYSIS_CASES:
         machine = load_machine(case)
-        poles = {}
-        for f_hz in machine.analysis.pole_speeds_hz:
-            res = machine_poles(machine, 2 * math.pi * f_hz)
-            poles[f_hz] = res
-            print(f"\n{case}: poles at f_r = {f_hz:g} Hz (w_F iterations "
-                  + " -> ".join(f"{w:.1f}" for w in res.history) + " rad/s)")
-            for r in res.table()[:6]:
-                print(f"  {r['re']:9.2f} {r['im']:+10.2f}j rad/s  {r['freq_hz']:8.2f} Hz  "
-                      f"zeta {r['damping_ratio']:.3f}")
-            print(f"  max Re = {res.max_real:.3f} 1/s -> {'stable' if res.stable else 'UNSTABLE'}")
+        poles[case] = {f_hz: machine_poles(machine, 2 * math.pi * f_hz)
+                       for f_hz in machine.analysis.pole_speeds_hz}
         case_dir = out / case
         make_folder(case_dir)
         write_text(case_dir / "poles.json", json.dumps(
             {str(f): {"poles": r.table(), "stable": r.stable, "w_F_history": r.history}
-             for f, r in poles.items()}, indent=1))
+             for f, r in poles[case].items()}, indent=1))
         rng = machine.analysis.frf_speed_hz
-        speeds = np.linspace(rng.start, rng.stop, rng.n)
-        frf = unbalance_frf(machine.loop, 2 * np.pi * speeds)
-        write_frf_csv(frf, case_dir / "frf.csv")
-        plot_frf(frf, case_dir, case)
-        summary[case] = {"stable": all(r.stable for r in poles.values()),
-                         "peak_db": {k: float(np.max(frf.db(k))) for k in
-                                     (f"{b}_{e}" for b in BEARINGS for e in ("static", "moment"))}}
-    return summary
+        frf = unbalance_frf(machine.loop, 2 * np.pi * np.linspace(rng.start, rng.stop, rng.n))
+        files += [write_frf_csv(frf, case_dir / "frf.csv"), *plot_frf(frf, case_dir, case)]
+        verdict = "stable" if all(r.stable for r in poles[case].values()) else "UNSTABLE"
+        print(f"  {case}: {verdict} at f_r = "
+              + ", ".join(f"{f:g}" for f in poles[case]) + f" Hz; poles and FRFs in {case_dir}")
+    return poles, files
 
 
 def record(scenario: str, bag: Path, logs: Path, in_process: bool,
