@@ -1,5 +1,6 @@
 # rotor_avc -- `make demo` runs the main job, `make test` the whole test suite, each on a fresh
-# machine: both create the virtual environment and install everything from PyPI first.
+# machine: both create the virtual environment and install from PyPI first (demo: the package
+# and ROS 2; test: also the test tool chain).
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -12,7 +13,7 @@ export MPLBACKEND ?= Agg
 # small dense matrices: threaded BLAS only adds contention (5-30x slower on 2 cores)
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: setup demo test test-full bench clean
+.PHONY: setup setup-test demo test test-full bench mutation clean
 
 setup: $(VENV)/.installed
 
@@ -20,20 +21,33 @@ $(VENV)/.installed: setup.py requirements-ros.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip "setuptools>=70.1" wheel
 	$(PY) -m pip install --quiet -r requirements-ros.txt
+	$(PY) -m pip install --quiet -e .
+	touch $@
+
+# the test tool chain (pytest, colcon, dask, rosbags, python-control, ...) on top
+setup-test: $(VENV)/.installed-test
+
+$(VENV)/.installed-test: $(VENV)/.installed setup.py
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $@
 
 demo: setup
 	$(VENV)/bin/rotor-avc demo --out $(OUT)
 
-test: setup
+test: setup-test
 	$(PY) -m pytest -q
 
-test-full: setup
+test-full: setup-test
 	$(PY) -m pytest -q --full
 
-bench: setup
+bench: setup-test
 	$(PY) bench/run_all.py
+
+# mutation check of the modules in tools/mutation_targets.toml (slow; not part of `make test`)
+MUTATION_JOBS ?= 2
+MUTATION_MAX ?= 40
+mutation: setup-test
+	$(PY) tools/mutation.py --jobs $(MUTATION_JOBS) --max $(MUTATION_MAX) --out out/mutation
 
 clean:
 	rm -rf $(VENV) out build install log .pytest_cache

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.api684 import (check_response, format_table, half_power_points,
-                                       required_margin_pct)
+from rotor_avc.analysis.api684 import (_af_bound, check_critical, check_response, format_table,
+                                       half_power_points, required_margin_pct)
 from rotor_avc.analysis.campbell import campbell_diagram
 from rotor_avc.cli import main
 from rotor_avc.errors import ModelError
@@ -100,3 +100,59 @@ def test_model_check_agrees_with_the_campbell_damping(capsys):
     k = cd.labels.index(crossing["mode"])
     zeta = np.interp(crossing["speed_hz"], cd.speed_hz, cd.damping_ratio[:, k])
     assert check["amplification_factor"] == pytest.approx(1 / (2 * zeta), rel=0.1)
+
+
+def test_half_power_points_interpolate_between_neighbouring_samples():
+    """Hand computation: level 1/sqrt(2) crossed between samples 1 and 2 (left) and 4 and 5
+    (right), each interpolated linearly between those two neighbours."""
+    speed = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    amp = np.array([0.5, 0.6, 0.9, 1.0, 0.8, 0.3])
+    level = 1 / np.sqrt(2)
+    n1, n2 = half_power_points(speed, amp, 3)
+    assert n1 == pytest.approx(3.0 - (0.9 - level) / (0.9 - 0.6))
+    assert n2 == pytest.approx(5.0 + (0.8 - level) / (0.8 - 0.3))
+
+
+def test_at_af_2_5_the_formula_applies():
+    """API 617 6.8.2.10: AF >= 2.5 is not critically damped; 17 (1 - 1 / (2.5 - 1.5)) = 0."""
+    assert required_margin_pct(2.5, "above") == 10.0
+    assert required_margin_pct(2.5, "below") == 0.0
+
+
+def test_the_af_bound_spans_the_found_point_to_the_record_end():
+    speed = np.array([1.0, 2.0, 4.0, 7.0])
+    assert _af_bound(speed, 3.0, None, 3.5) == pytest.approx(3.0 / (3.5 - 1.0))
+    assert _af_bound(speed, 3.0, 2.5, None) == pytest.approx(3.0 / (7.0 - 2.5))
+    assert _af_bound(speed, 3.0, None, None) == np.inf
+
+
+def test_a_broad_peak_with_one_half_power_point_is_critically_damped():
+    speed = np.arange(1.0, 10.0)
+    amp = np.array([0.5, 0.8, 0.9, 1.0, 0.95, 0.9, 0.85, 0.8, 0.78])
+    c = check_critical(speed, amp, 3, (20.0, 30.0))
+    n1 = 2.0 - (0.8 - 1 / np.sqrt(2)) / (0.8 - 0.5)
+    assert (c.n1_hz, c.n2_hz, c.amplification_factor) == (pytest.approx(n1), None, None)
+    assert (c.verdict, c.required_margin_pct) == ("critically damped", 0.0)   # 4 / (9 - n1) < 2.5
+
+
+def test_a_margin_equal_to_the_required_passes():
+    """A sharp peak (AF ~ 1400: required margin capped at 16 %) at 84 Hz below a range from
+    100 Hz: SM = 100 (100 - 84) / 100 = 16 % exactly, which meets the requirement."""
+    speed = np.array([83.0, 83.9, 84.0, 84.1, 85.0])
+    amp = np.array([0.1, 0.1, 1.0, 0.1, 0.1])
+    c = check_critical(speed, amp, 2, (100.0, 120.0))
+    assert c.amplification_factor > 1000
+    assert (c.separation_margin_pct, c.required_margin_pct) == (16.0, 16.0)
+    assert c.verdict == "pass"
+
+
+def test_short_records_and_low_operating_ranges():
+    with pytest.raises(ModelError, match="equal length >= 3"):
+        check_response([1.0, 2.0], [0.5, 1.0], (5.0, 6.0))
+    with pytest.raises(ModelError, match="equal length >= 3"):
+        check_response([1.0, 2.0, 3.0], [0.5, 1.0, 0.5, 0.2], (5.0, 6.0))
+    # an operating range below 1 Hz (60 rpm) is a range like any other
+    speed = np.linspace(0.1, 2.0, 200)
+    (c,) = check_response(speed, sdof(speed, 1.0, 0.05), (0.5, 0.8))
+    # the amplitude peak at sqrt(1 - 2 zeta^2) = 0.9975 Hz: SM = 100 (0.9975 - 0.8) / 0.8 = 24.7 %
+    assert c.position == "above" and c.separation_margin_pct == pytest.approx(24.69, abs=0.05)

@@ -11,6 +11,7 @@ from rotor_avc.analysis.campbell import campbell_diagram
 from rotor_avc.analysis.stability_study import machine_threshold
 from rotor_avc.cli import main
 from rotor_avc.config import load_config
+from rotor_avc.errors import ModelError
 from rotor_avc.machine import Machine, load_machine
 from rotor_avc.models.plant import LinearPlant
 
@@ -155,3 +156,11 @@ def test_sampled_loop_modes_approach_the_continuous_ones():
         assert theirs.size == low.size
         assert np.allclose(theirs, low, rtol=0.02)
         assert not np.allclose(theirs, low, rtol=1e-6)            # a different model indeed
+
+
+def test_a_fine_speed_grid_is_accepted():
+    """Steps below 1 rad/s are a grid like any other (only a non-increasing one is refused)."""
+    cd = campbell_diagram(disk_machine(), 2 * np.pi * np.array([1.0, 1.05, 1.1]), rule="forced")
+    assert cd.poles.shape[0] == 3
+    with pytest.raises(ModelError, match="increasing grid"):
+        campbell_diagram(disk_machine(), 2 * np.pi * np.array([1.0, 1.0]), rule="forced")

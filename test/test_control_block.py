@@ -131,3 +131,56 @@ def test_non_finite_measurement_is_refused_and_state_kept():
     state = block.state
     assert block.step(float("nan")) == held and block.faults["implausible"] == 1
     assert block.state == state
+
+
+def _integrator():
+    return DigitalController(discretize_controller(i_controller(1.4e5, "acceleration"), 2e-4),
+                             force_limit_n=500.0)
+
+
+@pytest.mark.parametrize("delay", [-1, 1.5, True])
+def test_delay_samples_must_be_a_whole_number_of_samples(delay):
+    tf = discretize_controller(i_controller(1.4e5, "acceleration"), 2e-4)
+    with pytest.raises(ModelError, match="delay_samples must be an integer >= 0"):
+        DigitalController(tf, delay_samples=delay)
+
+
+def test_a_held_force_exactly_at_the_limit_is_a_steady_state():
+    """G_c = ki/s holds any force with zero input, up to force_limit_n itself (500 N); beyond
+    it the start is refused and the block's state is left as it was."""
+    block = _integrator()
+    block.init_steady_state(0.0, force_n=500.0)
+    assert [block.step(0.0) for _ in range(3)] == [500.0] * 3
+    block.init_steady_state(0.0, force_n=-500.0)
+    assert block.step(0.0) == -500.0
+    for v in np.sin(np.arange(30) * 0.2).tolist():
+        block.step(v)
+    before = block.state
+    with pytest.raises(ModelError, match="exceeds force_limit_n 500 N"):
+        block.init_steady_state(0.0, force_n=501.0)
+    assert block.state == before
+
+
+def test_a_gain_is_restored_with_the_state():
+    block = _integrator()
+    block.set_gain(2.5)
+    x = np.sin(np.arange(40) * 0.3).tolist()
+    for v in x:
+        block.step(v)
+    twin = _integrator()
+    twin.set_state(block.state)
+    assert twin.gain == 2.5
+    assert [twin.step(v) for v in x] == [block.step(v) for v in x]
+
+
+def test_a_measurement_at_the_plausible_limit_is_accepted():
+    block = DigitalController(discretize_controller(i_controller(1.4e5, "acceleration"), 2e-4),
+                              measurement_limit=50.0)
+    assert block.safe_output == "hold"
+    assert block.step(-50.0) != 0.0 and block.step(50.0) != 0.0
+    assert block.faults["implausible"] == 0
+    block.step(-50.000001)
+    assert block.faults["implausible"] == 1
+    assert "measurements beyond +-50 m/s^2 rejected (hold)" in block.describe()
+    unlimited = DigitalController(block.tf)
+    assert "rejected" not in unlimited.describe()

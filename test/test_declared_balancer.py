@@ -113,7 +113,7 @@ def test_shipped_sections_read_and_fill_the_declared_defaults():
     assert s.estimator.min_speed_hz == 1.0 and s.signals == ("DL", "DR", "NL")
     for name, data in shipped("harmonic"):
         h = harmonic(data)
-        assert h.sensors and h.runout == () and h.fallback.mode == "freeze", name
+        assert h.sensors and h.runout == () and h.fallback.mode == "fade" and h.supervisor.enabled, name
     h = harmonic(config("scenario_harmonic_dynamic_runup"))
     assert (h.gain, h.feedforward, h.feedforward_effort) == ("auto", "dynamic", 1e-2)
 
@@ -215,7 +215,7 @@ CROSS_FIELD = [  # (config, section, changes, field, words of the problem or fix
      "harmonic.feedforward_effort", "feedforward: dynamic"),
     ("harmonic_bearings", "harmonic",
      {"feedforward": "dynamic", "adapt_in": "excitations", "refresh_samples": 25,
-      "influence": {"magnitude_factor": 2.0}}, "harmonic.feedforward", "perturbation"),
+      "identification": {}}, "harmonic.identification", "not an identified influence"),
     ("harmonic_bearings", "harmonic", {"runout": [{"sensor": "bearing_N_vy", "magnitude": 1.0}]},
      "harmonic.runout[0].sensor", "bearing_D_vz, bearing_N_vz"),
 ]

@@ -1,7 +1,10 @@
 """The dynamic feed-forward of harmonic control (rotor_avc.harmonic.internal_model): the block
 against a per-sample run of its own internal loop (a second method), and run-ups on the open
-feet of Werner 2021 (case 2) against case 2 at every resonance of the model."""
+feet of Werner 2021 (case 2) against case 2 at every resonance of the model, with the exact
+model and with a model whose actuators are off by 30 deg and x1.5 (against the quasi-steady
+phasors at the same error, and the estimate against its hand-derived fixed point)."""
 import copy
+import time
 
 import numpy as np
 import pytest
@@ -27,8 +30,10 @@ def runup(rate_hz_s, stop_hz, harmonic, **changes):
 def test_block_is_its_internal_loop_run_sample_by_sample():
     # the block's per-block split (steady phasors + transient through A_c^i) against the
     # internal loop simulated sample by sample at the same nodes, on a 2 Hz/s ramp to 12 Hz
-    # through the 7.5 and 9.4 Hz modes, with the run's exact unbalance as the estimate
-    scen = runup(2.0, 12.0, True, gain=1e-9)
+    # through the 7.5 and 9.4 Hz modes, with the run's exact unbalance as the estimate (the
+    # signals are zero, which the fallback takes for a diverging loop: `freeze` holds the
+    # estimate, where the default `fade` would fade it out)
+    scen = runup(2.0, 12.0, True, gain=1e-9, fallback={"mode": "freeze"})
     block = scen.harmonic()
     tables = block._loop.tables
     truth = np.array([scen.amplitudes[e] for e in block.schedule.excitations])
@@ -114,33 +119,85 @@ def reductions(rate_hz_s, stop_hz, **changes):
 
 
 @pytest.mark.sweep
-def test_runup_on_the_open_feet_20db_below_case2_at_every_resonance(full):
+def test_runup_on_the_open_feet_far_below_case2_at_every_resonance(full):
     # harmonic control alone on the open feet: the quasi-steady phasors reach only about 4 dB
     # at the 20.7 Hz peak at 2 Hz/s (the influence matrix nearly loses rank near 21 Hz); the
     # internal loop's forces follow the run-up. Short form: up to 30 Hz (eight peaks) at
     # 2 Hz/s; full: 0 -> 120 Hz (ten peaks) at 2 and 3 Hz/s. The estimate ends on the run's
-    # unbalance.
+    # unbalance. The bars are the least reduction measured (38.5 dB at 2 Hz/s, at the 7.5 Hz
+    # peak, in both forms; 24.0 dB at 3 Hz/s) less a margin of 3 dB: a loop that loses a few
+    # dB at one resonance fails.
+    bar_db = {2.0: 38.5 - 3.0, 3.0: 24.0 - 3.0}
     stop_hz, rates = (120.0, (2.0, 3.0)) if full else (30.0, (2.0,))
     for rate_hz_s in rates:
         red, block, truth = reductions(rate_hz_s, stop_hz)
         assert len(red) >= 8
-        assert min(red.values()) >= 20.0, (rate_hz_s, red)
+        assert min(red.values()) >= bar_db[rate_hz_s], (rate_hz_s, red)
         assert block.mode == "adapting", block.reason
         assert np.abs(block.C - truth).max() < 0.01 * np.abs(truth).max()
+
+
+@pytest.fixture(scope="module")
+def case2_30hz():
+    """The uncontrolled run-up (case 2) to 30 Hz at 2 Hz/s and its resonances: the reference
+    of the model-error runs."""
+    case2 = runup(2.0, 30.0, False)
+    t, f, amps = revolutions(case2.run(), SENSORS)
+    resonances = [(s, f) for s, f in model_resonances(case2, SENSORS) if f < 29.0]
+    return StrategyResult("", t, f, amps, amps, [], None, 0.0, 0.0), resonances
+
+
+def reductions_with_error(reference, feedforward, phase_deg, factor):
+    """1x peak reductions of a run-up (2 Hz/s to 30 Hz) whose model's actuators are off by
+    ``factor e^{j phase}``, with the given feed-forward; and the block and the run's unbalance."""
+    changes = {"feedforward": feedforward,
+               "influence": {"phase_error_deg": phase_deg, "magnitude_factor": factor}}
+    if feedforward == "quasi_static":
+        changes["feedforward_effort"] = None
+    scen = runup(2.0, 30.0, True, **changes)
+    block = scen.harmonic()
+    t, f, amps = revolutions(scen.run(harmonic=block), SENSORS)
+    red = peak_reductions(StrategyResult("", t, f, amps, amps, [], None, 0.0, 0.0),
+                          reference[0], SENSORS, reference[1])
+    truth = np.array([scen.amplitudes[e] for e in block.schedule.excitations])
+    return np.array(list(red.values())), block, truth
+
+
+@pytest.mark.sweep
+def test_runup_with_a_wrong_model_beats_the_quasi_steady_phasors(case2_30hz):
+    # the internal model's actuators 1.5 times too strong and 30 deg off (the plant receives
+    # the model's forces / (1.5 e^{j 30 deg})): on the open feet at 2 Hz/s to 30 Hz (eight
+    # peaks) the dynamic feed-forward keeps every peak at least 9 dB down (measured 11.3, median
+    # 27.5) where the quasi-steady phasors at the same error reach 4.3 (median 18.2); the
+    # estimate ends on a C_true (measured within 0.05 %), the fixed point where the plant's 1x
+    # cancels (H C_true = G_plant pinv(G_model) H C with G_model = a G_plant).
+    a = 1.5 * np.exp(1j * np.deg2rad(30.0))
+    dynamic, block, truth = reductions_with_error(case2_30hz, "dynamic", 30.0, 1.5)
+    quasi, _, _ = reductions_with_error(case2_30hz, "quasi_static", 30.0, 1.5)
+    assert dynamic.size == quasi.size >= 8
+    assert dynamic.min() >= 9.0 and np.median(dynamic) >= 25.0, dynamic
+    assert dynamic.min() >= quasi.min() + 5.0 and np.median(dynamic) >= np.median(quasi) + 6.0
+    assert block.mode == "adapting", block.reason
+    assert np.abs(block.C - a * truth).max() < 0.005 * np.abs(a * truth).max()
 
 
 @pytest.mark.parametrize("change, field", [
     ({"adapt_in": "forces"}, "harmonic.feedforward"),
     ({"refresh_samples": 0}, "harmonic.refresh_samples"),
-    ({"identification": {"forgetting": 0.98}}, "harmonic.feedforward"),
-    ({"influence": {"phase_error_deg": 30.0}}, "harmonic.feedforward"),
+    ({"identification": {"forgetting": 0.98}}, "harmonic.identification"),
     ({"feedforward_effort": -1.0}, "harmonic.feedforward_effort"),
     ({"feedforward": "quasi_static", "feedforward_effort": 1.0}, "harmonic.feedforward_effort"),
-    ({"feedforward": "exact"}, "harmonic.feedforward")])
+    ({"feedforward": "exact"}, "harmonic.feedforward"),
+    ({"sensors": ["bearing_D_vz", "foot_DL_dz"]}, "harmonic.sensors"),
+    ({"sensors": ["bearing_D_vz", "foot_DL_dz"], "gain": 0.1}, "harmonic.sensors"),
+    ({"min_speed_hz": 150.0}, "harmonic.min_speed_hz")])
 def test_dynamic_feedforward_config_errors(change, field):
+    # every configuration error is found before the influence, gain and internal-model tables
+    # are built (building them takes several seconds on this run-up; the check a few ms)
     data = copy.deepcopy(load_config("scenario_harmonic_dynamic_runup").data)
-    data["simulation"].update(duration_s=1.0, speed={"type": "constant", "speed_hz": 10.0})
     data["harmonic"].update(change)
+    start = time.process_time()
     with pytest.raises(ConfigError) as err:
         scenario_from_config(data, "test").harmonic()
     assert err.value.field == field, err.value
+    assert time.process_time() - start < 2.0

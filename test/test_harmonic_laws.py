@@ -12,6 +12,7 @@ from rotor_avc.harmonic.identification import InfluenceRls
 from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.harmonic.laws import convergence_radius, update_matrices
 from rotor_avc.harmonic.lti import robustness_map
+from rotor_avc.harmonic.supervisor import SupervisorSettings
 
 RNG = np.random.default_rng(7)
 
@@ -115,7 +116,8 @@ def test_force_limit_and_fallback():
     P = np.array([1.0, 1.0j])
     wrong = schedule(G * np.exp(1j * np.deg2rad(150)), speed)
     block = HarmonicController(wrong, T, HarmonicSettings(
-        gain=0.5, min_speed_hz=1, force_limit_n=5.0, divergence_factor=3.0, fallback="fade"))
+        gain=0.5, min_speed_hz=1, force_limit_n=5.0, divergence_factor=3.0, fallback="fade",
+        supervisor=SupervisorSettings(enabled=False)))     # the fallback behind the supervisor
     peak = 0.0
     for k in range(20000):
         angle = speed * k * T

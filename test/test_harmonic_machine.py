@@ -60,7 +60,8 @@ def test_lifted_analysis_predicts_divergence_rate_of_time_simulation(speed_hz, g
     # damped modes make the real loop diverge, at the rate the one-revolution map predicts
     # (updates once per revolution, or every 70 samples: five per revolution)
     scen = scenario("scenario_harmonic_case2_steady", speed_hz, 6.0, gain=gain,
-                    update_every_samples=every, fallback={"divergence_factor": 1e12})
+                    update_every_samples=every, fallback={"divergence_factor": 1e12},
+                    supervisor={"enabled": False})
     block = scen.harmonic()
     w = 2 * np.pi * speed_hz
     poles = harmonic_poles(machine_sampled_loop(scen.machine, scen.sample_period_s), w, w,
@@ -144,7 +145,8 @@ simulation: {{duration_s: 2.0, speed: {{type: constant, speed_hz: {OFF_RESONANCE
     with open(tmp_path / "out" / "strategies.csv") as fh:
         table = {row["strategy"]: row for row in csv.DictReader(fh)}
     assert set(table) == {"no control", "feedback", "harmonic steepest descent",
-                          "harmonic Newton", "harmonic WLS", "feedback + harmonic Newton"}
+                          "harmonic Newton", "harmonic WLS", "harmonic dynamic feed-forward",
+                          "feedback + harmonic Newton"}
     assert float(table["no control"]["1x bearing_D_vz (dB)"]) == 0.0
     both = table["feedback + harmonic Newton"]
     assert float(both["1x bearing_D_vz (dB)"]) < -40 and float(both["max |z| per revolution"]) < 1
@@ -280,7 +282,8 @@ def test_gain_margin_of_the_exact_loop_matches_time_simulation():
     rates = []
     for factor in (0.7, 1.6):
         sim = scenario("scenario_harmonic_case2_steady", speed_hz, 12.0,
-                       gain=gain * margin * factor, fallback={"divergence_factor": 1e12})
+                       gain=gain * margin * factor, fallback={"divergence_factor": 1e12},
+                       supervisor={"enabled": False})
         rates.append(growth_per_revolution(sim.run(), speed_hz))
     assert rates[0] < 1.0 < rates[1]
 
@@ -313,7 +316,7 @@ def test_robustness_map_points_confirmed_by_time_simulation(law):
             continue
         sim = scenario("scenario_harmonic_case2_steady", speed_hz, 4.0, law=law, gain=gain,
                        influence={"phase_error_deg": phases[i], "magnitude_factor": mags[j]},
-                       fallback={"divergence_factor": 1e12})
+                       fallback={"divergence_factor": 1e12}, supervisor={"enabled": False})
         assert (growth_per_revolution(sim.run(), speed_hz) < 1) == (r < 1), (phases[i], mags[j])
         checked.add(r < 1)
     assert checked == {True, False}

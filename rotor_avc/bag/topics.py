@@ -20,7 +20,8 @@ Namespace ``/<machine>``, default ``/avc``; all types are standard ROS 2 message
 * ``/avc/harmonic/forces`` -- std_msgs/msg/Float64MultiArray, labelled ``time_s``,
   ``<actuator>_f<axis>``: the adaptive harmonic controller's forces (N), added by the plant to
   the feedback forces; ``/avc/harmonic/status`` (after each update): ``time_s``, ``mode``,
-  ``updates``, ``E<h>_<sensor>`` and ``U<h>_<actuator>`` (error and force phasor magnitudes);
+  ``updates``, ``E<h>_<sensor>`` and ``U<h>_<actuator>`` (error and force phasor magnitudes),
+  ``fallbacks`` (the supervisor's fall-backs so far);
 * ``/clock`` -- rosgraph_msgs/msg/Clock: the sim time (lockstep mode);
 * ``/diagnostics`` -- diagnostic_msgs/msg/DiagnosticArray: node status and timing.
 

@@ -25,11 +25,13 @@ COMMANDS = [
     "stability", "study", "active-bearing", "balance",       # paper-specific studies
     "api684",                                                # standard checks of a model
     "demo",                                                  # the main job
+    "run",                                                   # a scenario as a ROS graph
     "replay",                                                # bags into the ROS graph
     "bag",                                                   # bag info, check, recover
     "runup",                                                 # views of a recorded run-up
     "calibrate",                                             # a model fitted to recordings
     "config",                                                # the configuration language
+    "harmonic",                                              # harmonic control commissioned
 ]
 #: command -> its module, where they differ (``config.py`` would read as the config loader)
 MODULES = {"config": "config_cmd"}

@@ -1,5 +1,6 @@
 """``rotor-avc study strategies SCENARIO``: the vibration-control strategies on one machine and
-speed profile (rotor_avc.harmonic.strategy_study), tabulated and reported."""
+speed profile (rotor_avc.harmonic.strategy_study), tabulated and reported; one line per strategy
+started and finished on stderr, with the elapsed time and the time left."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -21,7 +22,8 @@ def run(args) -> int:
     from ..scenario import scenario_from_config
     cfg = load_config(args.target)
     try:
-        results, sensors = strategy_study(cfg.data, scenario_from_config, cfg.source)
+        results, sensors = strategy_study(cfg.data, scenario_from_config, cfg.source,
+                                          progress=True)
     except ModelError as exc:
         raise ConfigError("harmonic", str(exc), source=cfg.source) from None
     out = args.out or Path("out/strategies")

@@ -30,6 +30,10 @@ Limits (anti-windup by projection): per actuator the peak force ``sum_h |A_h|`` 
 ``force_limit_n`` and the peak slope ``sum_h h Omega |A_h|`` within ``rate_limit_n_per_s`` by
 scaling the stored phasors themselves, so the adaptation never winds up beyond the limit.
 
+Supervisor (:mod:`.supervisor`, ``adapt_in: forces``, on by default): per update it compares the
+error with the level with control off and its model's prediction, falls back to the best phasors
+seen (or zero), re-identifies the influence matrix with test phasors and adapts again.
+
 Safe fallback: the loop is taken to diverge when ``|E| / Omega^2`` exceeds ``divergence_factor``
 times its value at switch-on (an unbalance response grows with ``Omega^2``; the default 100
 leaves room for a resonance's amplification during a run-up), and the estimate to be poor when
@@ -52,10 +56,11 @@ from ..errors import ModelError
 from .identification import InfluenceRls
 from .influence import InfluenceSchedule
 from .laws import check_law, update_matrices
+from .supervisor import Supervisor, SupervisorSettings
 
 FALLBACKS = ("freeze", "fade")
 ADAPT_IN = ("forces", "excitations")
-MODES = ("off", "adapting", "frozen", "fading")
+MODES = ("off", "adapting", "frozen", "fading", "identifying")
 TWO_PI = 2 * math.pi
 
 
@@ -84,11 +89,12 @@ class HarmonicSettings:
     min_change_n: float = 1e-3
     min_rel_change: float = 0.1
     seed: int = 0
-    fallback: str = "freeze"
+    fallback: str = "fade"
     divergence_factor: float = 100.0
     poor_residual: float = math.inf
     patience: int = 3
     fade_updates: int = 10
+    supervisor: SupervisorSettings = SupervisorSettings()
 
     def check(self) -> None:
         """ModelError naming the first setting out of range."""
@@ -148,6 +154,7 @@ class HarmonicController:
         self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
         self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
         self._every = settings.update_every_samples
+        self._supervise = settings.supervisor.enabled and settings.adapt_in == "forces"
         self.reset()
 
     # -- state -------------------------------------------------------------------------------
@@ -172,6 +179,7 @@ class HarmonicController:
         self._poor = 0
         self.n_updates = 0
         self.saturated = False
+        self.supervisor = Supervisor(s.supervisor) if self._supervise else None
         self._clear_window()
         self._set_outputs()
 
@@ -196,7 +204,8 @@ class HarmonicController:
                 "prev": None if self._prev is None else tuple(a.copy() for a in self._prev),
                 "rls": [(r.correction.copy(), r.covariance.copy(), r.residual, r.n_updates)
                         for r in self.rls],
-                "rng": self._rng.bit_generator.state}
+                "rng": self._rng.bit_generator.state,
+                "supervisor": None if self.supervisor is None else self.supervisor.state}
 
     def set_state(self, state: dict) -> None:
         """Restore a :attr:`state`."""
@@ -216,6 +225,8 @@ class HarmonicController:
         for r, (corr, cov, res, nu) in zip(self.rls, state["rls"]):
             r.correction, r.covariance, r.residual, r.n_updates = corr.copy(), cov.copy(), res, nu
         self._rng.bit_generator.state = state["rng"]
+        if self.supervisor is not None:
+            self.supervisor.set_state(state["supervisor"])
         self._set_outputs()
 
     @property
@@ -224,7 +235,7 @@ class HarmonicController:
         the status topic and ``/diagnostics``)."""
         return {"mode": self.mode, "reason": self.reason, "updates": self.n_updates,
                 "error_abs": np.abs(self.E).tolist(), "force_abs_n": np.abs(self.U).tolist(),
-                "saturated": self.saturated,
+                "saturated": self.saturated, "fallbacks": getattr(self.supervisor, "fallbacks", 0),
                 "residual": [r.residual for r in self.rls],
                 "excitation_estimate": {e: [c.real, c.imag] for e, c in
                                         zip(self.schedule.excitations, self.C.tolist())}}
@@ -284,6 +295,8 @@ class HarmonicController:
               and self.schedule.covers(speed))
         if on and self.mode == "off":
             self.mode, self.reason = "adapting", "switched on"
+            if self.supervisor is not None:
+                self.supervisor.restart()
             self._clear_window()
         elif not on and self.mode != "off":
             self.U[:] = 0.0
@@ -332,7 +345,9 @@ class HarmonicController:
             elif self._poor >= s.patience:
                 self._fall_back(f"poor estimate: prediction residual above {s.poor_residual:g} "
                                 f"for {self._poor} updates")
-        if self.mode == "adapting" and s.adapt_in == "excitations":
+        if self._supervised(E, A, prior, speed):
+            pass
+        elif self.mode == "adapting" and s.adapt_in == "excitations":
             self._update_excitations(E[0] - self.estimate[0] @ self.D[0], speed)
         elif self.mode == "adapting":
             for hi in range(H):
@@ -350,6 +365,22 @@ class HarmonicController:
             self.D[:] = 0.0
         self._limit(speed)
         self._set_outputs()
+
+    def _supervised(self, E, A, prior, speed: float) -> bool:
+        """The supervisor's turn (:mod:`.supervisor`): True when it set the phasors."""
+        sup = self.supervisor
+        if sup is None or not (self.mode == "adapting" or sup.busy):
+            return False
+        hold = sup.observe(E, A, self.estimate, speed)
+        if sup.identified is not None:
+            for hi, r in enumerate(self.rls):
+                r.correction = sup.identified[hi] - prior[hi]
+            self.estimate, sup.identified = sup.identified, None
+        if hold is None:
+            return False
+        self.U, self.mode, self.reason = hold.copy(), sup.mode, sup.reason
+        self.D[:] = 0.0
+        return True
 
     def gain_at(self, speed: float) -> float:
         """The adaptation gain at this speed (the schedule's nearest node, else ``gain``)."""

@@ -24,16 +24,20 @@ controllers closed (:mod:`rotor_avc.harmonic.influence`), on the run's damping r
 """
 from __future__ import annotations
 
+import cmath
 import math
 from dataclasses import dataclass, replace
+
+import numpy as np
 
 from ..section import Section
 from ..errors import ModelError
 from ..settings import read_settings, setting
 from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings
-from .influence import model_schedule, schedule_speeds
+from .influence import InfluenceSchedule, model_schedule, schedule_speeds
 from .laws import LAWS
 from .runout import WithRunout
+from .supervisor import SupervisorSettings
 
 FEEDFORWARDS = ("quasi_static", "dynamic")
 #: ``gain: auto``: candidate gains and the relative speed step of the analysed speeds
@@ -41,17 +45,37 @@ AUTO_GAINS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5)
 AUTO_GAIN_STEP = 0.08
 
 
+@dataclass(frozen=True, kw_only=True)
+class InfluenceTableEntry:
+    """An entry of ``harmonic.influence.table``: one element ``G_h[sensor, actuator]`` of a
+    measured influence matrix (``rotor-avc harmonic commission`` writes them,
+    :mod:`.commission`)."""
+
+    speed_hz: float = setting(doc="shaft speed it was measured at", unit="Hz", positive=True)
+    harmonic: int = setting(1, "order h of the shaft speed", minimum=1)
+    sensor: str = setting(doc="one of the section's `sensors`")
+    actuator: str = setting(doc="one of the section's `actuators`")
+    re: float = setting(doc="real part, sensor unit per N")
+    im: float = setting(doc="imaginary part, sensor unit per N")
+
+
 @dataclass(frozen=True)
 class InfluenceSettings:
     """``harmonic.influence``: the influence matrix's speed schedule from the model
-    (:mod:`.influence`)."""
+    (:mod:`.influence`), or a measured table."""
 
     rel_step: float = setting(0.005, "relative speed step of the table", positive=True,
                               maximum=0.5)
     phase_error_deg: float = setting(0.0, "deliberate phase error of the estimate (robustness "
-                                     "studies)", unit="deg")
-    magnitude_factor: float = setting(1.0, "deliberate magnitude factor of the estimate",
+                                     "studies; feedforward dynamic: of its internal model's "
+                                     "actuators)", unit="deg")
+    magnitude_factor: float = setting(1.0, "deliberate magnitude factor of the estimate "
+                                      "(feedforward dynamic: of its internal model's actuators)",
                                       positive=True)
+    table: tuple[InfluenceTableEntry, ...] = setting((), "measured influence matrices, every "
+                                                     "(speed, harmonic, sensor, actuator) once, "
+                                                     "used instead of the model's (held "
+                                                     "rel_step beyond its first and last speed)")
 
 
 @dataclass(frozen=True)
@@ -73,7 +97,7 @@ class FallbackSettings:
     """``harmonic.fallback``: what the block does when its loop diverges or its estimate is poor
     (:mod:`.block`)."""
 
-    mode: str = setting("freeze", "`freeze` (hold the phasors) or `fade` (fade them out)",
+    mode: str = setting("fade", "`fade` (fade the phasors out) or `freeze` (hold them)",
                         choices=FALLBACKS)
     divergence_factor: float = setting(100.0, "growth of the error magnitude over Omega^2 since "
                                        "switch-on that counts as diverging", minimum=1.0)
@@ -81,6 +105,26 @@ class FallbackSettings:
                                           "as poor (none: never)", positive=True)
     patience: int = setting(3, "updates a poor residual may last", minimum=1)
     fade_updates: int = setting(10, "updates a fade lasts", minimum=1)
+
+
+@dataclass(frozen=True)
+class CommissionSettings:
+    """``harmonic.commission``: the influence matrix identified on the machine with test phasors,
+    one actuator at a time, and the margin check before adapting (:mod:`.commission`)."""
+
+    test_force_n: float = setting(100.0, "peak force of each test phasor (within force_limit_n "
+                                  "and rate_limit_n_per_s)", unit="N", positive=True)
+    max_added_vibration: float | None = setting(None, "largest rise of a sensor's 1x (nx) "
+                                                "magnitude during a test, sensor unit (none: its "
+                                                "level before the test)", positive=True)
+    ramp_revolutions: int = setting(5, "revolutions a test phasor is faded in over", minimum=1)
+    settle_revolutions: int = setting(40, "revolutions waited before measuring", minimum=1)
+    measure_revolutions: int = setting(10, "revolutions averaged", minimum=2)
+    max_retries: int = setting(4, "halvings of a test level that added too much vibration",
+                               minimum=0)
+    min_phase_margin_deg: float = setting(20.0, "refuse adapting when the loop tolerates less "
+                                          "phase error of the table", unit="deg",
+                                          nonnegative=True, maximum=90.0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -142,7 +186,12 @@ class HarmonicControlSettings:
     identification: IdentificationSettings | None = setting(None, "present (`{}`: the "
                                                             "defaults): online identification")
     fallback: FallbackSettings = setting(FallbackSettings, "safe fallback")
+    supervisor: SupervisorSettings = setting(SupervisorSettings, "never worse than off: fall "
+                                             "back, re-identify, adapt again "
+                                             "(rotor_avc/harmonic/supervisor.py)")
     runout: tuple[RunoutEntry, ...] = setting((), "simulated sensor runout")
+    commission: CommissionSettings = setting(CommissionSettings, "`rotor-avc harmonic "
+                                             "commission`: test phasors and margin")
 
     def check(self, sec: Section) -> None:
         if any(h != int(h) or h < 1 for h in self.harmonics) \
@@ -169,6 +218,9 @@ class HarmonicControlSettings:
             if entry.sensor not in self.sensors:
                 raise sec.error(f"runout[{i}].sensor", f"{entry.sensor!r} is not a harmonic "
                                 "sensor", fix="use one of: " + ", ".join(self.sensors))
+        if self.influence.table and self.adapt_in != "forces":
+            raise sec.error("influence.table", "a measured table has no disturbance model: it "
+                            "serves adapt_in: forces", fix="drop adapt_in, or drop influence.table")
         if self.feedforward == "dynamic":
             self._check_dynamic(sec)
         elif self.feedforward_effort is not None:
@@ -184,13 +236,11 @@ class HarmonicControlSettings:
         if self.refresh_samples < 1:
             raise sec.error("refresh_samples", "the dynamic feed-forward needs its block length",
                             fix="give refresh_samples >= 1 (e.g. 25)")
-        inf = self.influence
-        if self.identification is not None or inf.phase_error_deg != 0 \
-                or inf.magnitude_factor != 1:
-            raise sec.error("feedforward", "dynamic runs on the model itself: no influence "
-                            "identification or perturbation",
-                            fix="drop identification and influence.phase_error_deg / "
-                            "magnitude_factor, or use feedforward: quasi_static")
+        if self.identification is not None:
+            raise sec.error("identification", "the dynamic feed-forward runs its internal model "
+                            "with the declared model error (influence.phase_error_deg / "
+                            "magnitude_factor), not an identified influence",
+                            fix="drop identification, or use feedforward: quasi_static")
 
 
 #: the ``harmonic:`` declaration
@@ -226,6 +276,13 @@ def harmonic_actuators(machine) -> list[str]:
     return _actuators(machine, harmonic_section(machine.config))
 
 
+def harmonic_sensors(machine) -> list[str]:
+    """The sensors of the ``harmonic:`` section (validated), without building the block."""
+    from ..sim.stepper import MeasurementLayout
+    return _names(machine.config.section("harmonic"), "sensors",
+                  harmonic_section(machine.config).sensors, MeasurementLayout(machine.plant).names)
+
+
 def _block_settings(s: HarmonicControlSettings) -> HarmonicSettings:
     """The block's :class:`HarmonicSettings` (``gain: auto``: the block's default gain, replaced
     by the gain schedule)."""
@@ -237,7 +294,7 @@ def _block_settings(s: HarmonicControlSettings) -> HarmonicSettings:
                                   else s.rate_limit_n_per_s),
               min_speed_hz=s.min_speed_hz, start_s=s.start_s, fallback=s.fallback.mode,
               divergence_factor=s.fallback.divergence_factor, patience=s.fallback.patience,
-              fade_updates=s.fallback.fade_updates)
+              fade_updates=s.fallback.fade_updates, supervisor=s.supervisor)
     if s.gain != "auto":
         kw["gain"] = s.gain
     if s.fallback.poor_residual is not None:
@@ -271,9 +328,12 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     loop = machine_sampled_loop(machine, sample_period_s)
     dynamic = s.feedforward == "dynamic"
     try:
-        schedule = model_schedule(loop, sensors, actuators, harmonics,
-                                  schedule_speeds(start, max_speed_rad_s, s.influence.rel_step),
-                                  w_F, disturbance=s.adapt_in == "excitations")
+        if s.influence.table:
+            schedule = table_schedule(sec, s, sensors, actuators, harmonics)
+        else:
+            schedule = model_schedule(loop, sensors, actuators, harmonics,
+                                      schedule_speeds(start, max_speed_rad_s, s.influence.rel_step),
+                                      w_F, disturbance=s.adapt_in == "excitations")
     except ModelError as exc:
         raise sec.error("sensors" if "unbalance response" in str(exc) else "harmonics",
                         str(exc)) from None
@@ -288,15 +348,50 @@ def harmonic_from_config(machine, sample_period_s: float, max_speed_rad_s: float
     schedule = schedule.perturbed(s.influence.phase_error_deg, s.influence.magnitude_factor)
     if dynamic:
         block = _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F,
-                               s.feedforward_effort)
+                               s.feedforward_effort, s.influence)
     else:
         block = HarmonicController(schedule, sample_period_s, settings)
     terms = [(sensors.index(r.sensor), r.order, r.amplitude) for r in s.runout]
     return WithRunout(block, terms) if terms else block
 
 
-def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F, effort):
-    """The block with the dynamic feed-forward (:mod:`.dynamic_block`)."""
+def table_schedule(sec: Section, s: HarmonicControlSettings, sensors, actuators, harmonics
+                   ) -> InfluenceSchedule:
+    """The measured ``influence.table`` as a schedule, every (speed, harmonic, sensor, actuator)
+    given once; held ``influence.rel_step`` beyond its first and last speed, so that a table of
+    one speed serves a run at that speed."""
+    tsec = sec.section("influence")
+    speeds = sorted({e.speed_hz for e in s.influence.table})
+    axes = (speeds, list(harmonics), list(sensors), list(actuators))
+    values = {}
+    for i, e in enumerate(s.influence.table):
+        for key, value, known in (("harmonic", e.harmonic, harmonics),
+                                  ("sensor", e.sensor, sensors),
+                                  ("actuator", e.actuator, actuators)):
+            if value not in known:
+                raise tsec.error(f"table[{i}].{key}", f"{value!r} is not one of the section's",
+                                 fix="use one of: " + ", ".join(map(str, known)))
+        key = (e.speed_hz, e.harmonic, e.sensor, e.actuator)
+        if key in values:
+            raise tsec.error(f"table[{i}]", f"repeats {key}", fix="give each element once")
+        values[key] = complex(e.re, e.im)
+    mats = np.zeros(tuple(len(a) for a in axes), complex)
+    for idx in np.ndindex(*mats.shape):
+        key = tuple(a[n] for a, n in zip(axes, idx))
+        if key not in values:
+            raise tsec.error("table", f"has no element for speed_hz {key[0]:g}, harmonic "
+                             f"{key[1]}, sensor {key[2]}, actuator {key[3]}",
+                             fix="give every (speed, harmonic, sensor, actuator) once")
+        mats[idx] = values[key]
+    step = s.influence.rel_step
+    w = 2 * math.pi * np.array([speeds[0] * (1 - step), *speeds, speeds[-1] * (1 + step)])
+    return InfluenceSchedule(w, tuple(harmonics), np.concatenate([mats[:1], mats, mats[-1:]]),
+                             tuple(sensors), tuple(actuators))
+
+
+def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F, effort, influence):
+    """The block with the dynamic feed-forward (:mod:`.dynamic_block`), its internal model's
+    actuators off by the declared ``influence`` error."""
     from .dynamic_block import DynamicHarmonicController
     from .internal_model import DEFAULT_EFFORT, internal_tables
     try:
@@ -306,4 +401,5 @@ def _dynamic_block(sec, loop, schedule, sample_period_s, settings, w_F, effort):
                                  settings.sensor_weights)
     except ModelError as exc:
         raise sec.error("feedforward", str(exc)) from None
-    return DynamicHarmonicController(schedule, sample_period_s, settings, tables)
+    error = cmath.rect(influence.magnitude_factor, math.radians(influence.phase_error_deg))
+    return DynamicHarmonicController(schedule, sample_period_s, settings, tables, error)

@@ -9,6 +9,15 @@ without the internal loop's forces) drives the block's law on ``H``; a new estim
 new block at the next sample (the loop that :func:`.lti.excitation_loop_poles` analyses, and
 ``gain: auto`` follows).
 
+Model error (``influence.phase_error_deg`` / ``magnitude_factor`` of the config, as for the
+quasi-steady phasors): the internal model's actuators act ``a = m e^{j phi}`` times as strongly as
+the plant's, i.e. the forces the model computes reach the plant as ``1/a`` times those at 1x --
+applied to the block's force phasor exactly and to its transient forces (which are not at 1x)
+in magnitude, ``1/m``. The prediction stays the model's, so the residual carries the error
+``(G_plant - G_model) f`` beside ``H (C_true - C)``; at a constant speed the estimate's loop
+is then the quasi-steady one with the law's map off by ``1/a`` (stable for ``|phi|`` below about
+90 deg at a moderate gain), and the steady 1x still cancels when it converges.
+
 Limits (anti-windup): at each block's start, when the force phasor's peak plus the block's
 largest transient force (or the corresponding slopes) exceeds ``force_limit_n`` (or
 ``rate_limit_n_per_s``), the estimate and the internal state are scaled down together -- the
@@ -32,16 +41,21 @@ class DynamicHarmonicController(HarmonicController):
     """``reset()`` / ``step(signals, angle, speed) -> forces`` (module docstring)."""
 
     def __init__(self, schedule: InfluenceSchedule, sample_period_s: float,
-                 settings: HarmonicSettings, tables: InternalTables, name: str = "harmonic"):
+                 settings: HarmonicSettings, tables: InternalTables,
+                 model_error: complex = 1.0, name: str = "harmonic"):
         if settings.adapt_in != "excitations" or settings.identify:
-            raise ModelError("the dynamic feed-forward adapts the excitation estimate on the "
-                             "model itself: it needs adapt_in excitations and no identification")
+            raise ModelError("the dynamic feed-forward adapts the excitation estimate on its "
+                             "internal model: it needs adapt_in excitations and no "
+                             "identification")
+        if not (math.isfinite(abs(model_error)) and abs(model_error) > 0):
+            raise ModelError(f"model_error must be a finite nonzero factor (got {model_error})")
         if tables.refresh != settings.refresh_samples or abs(
                 tables.sample_period_s - sample_period_s) > 1e-12 * sample_period_s:
             raise ModelError("the internal-model tables were built for another refresh_samples "
                              "or sample rate")
         self._loop = InternalLoop(tables)
         self._r = tables.refresh
+        self._to_plant = 1.0 / complex(model_error)
         super().__init__(schedule, sample_period_s, settings, name)
 
     def reset(self) -> None:
@@ -106,6 +120,8 @@ class DynamicHarmonicController(HarmonicController):
         s = self.settings
         self._restart = False
         self.U[0], F, ftr, pred = self._loop.advance(self.C, angle, speed, elapsed)
+        if self._to_plant != 1.0:
+            F, ftr = F * self._to_plant, ftr * abs(self._to_plant)
         if s.force_limit_n == math.inf and s.rate_limit_n_per_s == math.inf:
             self._set_block(F, ftr, pred)
             return
@@ -144,5 +160,8 @@ class DynamicHarmonicController(HarmonicController):
         """Limits act at each block's start (:meth:`_start_block`)."""
 
     def describe(self) -> str:
+        a = 1.0 / self._to_plant
+        error = "" if a == 1.0 else (f", model error x{abs(a):.3g} at "
+                                     f"{math.degrees(math.atan2(a.imag, a.real)):.3g} deg")
         return super().describe() + (f", dynamic feed-forward (internal loop, blocks of "
-                                     f"{self._r} samples)")
+                                     f"{self._r} samples{error})")

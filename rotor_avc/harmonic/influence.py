@@ -97,6 +97,11 @@ def model_schedule(loop, sensors, actuators, harmonics, speeds_rad_s, w_F=None,
         raise ModelError(f"harmonic {max(harmonics)} of {speeds.max() / (2 * np.pi):g} Hz is at "
                          f"or above the Nyquist frequency {nyq / (2 * np.pi):g} Hz -- raise the "
                          "sample rate or drop that harmonic")
+    outputs = [o.name for o in loop.plant.outputs]
+    missing = [name for name in sensors if name not in outputs]
+    if disturbance and missing:                   # checked before any response is computed
+        raise ModelError(f"sensors {missing} have no unbalance response in the model; adapting "
+                         "in the excitations needs plant outputs (" + ", ".join(outputs) + ")")
     out = np.zeros((speeds.size, len(harmonics), len(sensors), len(actuators)), complex)
     for s, speed in enumerate(speeds):
         freqs = [h * speed / (2 * np.pi) for h in harmonics]
@@ -106,11 +111,6 @@ def model_schedule(loop, sensors, actuators, harmonics, speeds_rad_s, w_F=None,
                 out[s, :, i, j] = frf.responses[name]
     if not disturbance:
         return InfluenceSchedule(speeds, tuple(harmonics), out, tuple(sensors), tuple(actuators))
-    outputs = [o.name for o in loop.plant.outputs]
-    missing = [name for name in sensors if name not in outputs]
-    if missing:
-        raise ModelError(f"sensors {missing} have no unbalance response in the model; adapting "
-                         "in the excitations needs plant outputs (" + ", ".join(outputs) + ")")
     excs = tuple(e.name for e in loop.plant.excitations)
     wf = None if w_F is None else np.full(speeds.shape, w_F)
     frf = loop.unbalance_frf(speeds, w_F=wf)

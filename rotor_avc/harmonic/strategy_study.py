@@ -1,6 +1,8 @@
 """Strategy comparison: one machine and speed profile under no control, the paper's feedback,
-adaptive harmonic control (each law), the two combined, and -- where the config has them -- the
-Sci. Rep. 2023 feed-forward and the balancer.
+adaptive harmonic control (each law; and, for 1x on plant outputs, the dynamic feed-forward of
+:mod:`.dynamic_block`: the Newton law adapting the excitation estimate that drives the internal
+loop), the two combined, and -- where the config has them -- the Sci. Rep. 2023 feed-forward and
+the balancer.
 
 Every strategy is a variant of one scenario (a config with a ``harmonic:`` section): feedback =
 the config's ``controllers:``; harmonic = its ``harmonic:`` with the law replaced. Results from
@@ -19,12 +21,13 @@ order tracking of the recorded sensor signals (one phasor per revolution,
 * robustness at a constant speed (the nearest with a whole number of samples per revolution):
   the exact one-revolution loop's ``max |z|`` (:mod:`rotor_avc.harmonic.lti`), its
   gain margin (factor on the gain to ``max |z| = 1``) and the quasi-steady phase-error limit of
-  the law.
+  the law (the dynamic feed-forward: its estimate loop's ``max |z|`` and gain margin).
 """
 from __future__ import annotations
 
 import copy
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,8 +37,10 @@ from ..analysis.resonance_peaks import model_peaks
 from ..analysis.sampled_loop import machine_sampled_loop
 from ..errors import ModelError
 from ..machine import models_supporting
+from ..studies.progress import Progress
+from .dynamic_block import DynamicHarmonicController
 from .laws import convergence_radius, update_matrices
-from .lti import harmonic_poles, stable_gain_limit
+from .lti import excitation_loop_poles, harmonic_poles, stable_gain_limit
 
 TAIL = 5
 PHASE_STEP_DEG = 5.0
@@ -43,6 +48,9 @@ PEAK_BAND_HZ = 1.0
 LAWS = {"harmonic steepest descent": {"law": "steepest_descent"},
         "harmonic Newton": {"law": "newton", "effort_weight": 0.0},
         "harmonic WLS": {"law": "wls", "effort_weight": 1e-3}}
+DYNAMIC = "harmonic dynamic feed-forward"
+#: the dynamic variant's block length where the config gives none (samples)
+DYNAMIC_REFRESH = 25
 
 
 @dataclass
@@ -61,8 +69,23 @@ class StrategyResult:
     peak_reduction_db: dict = field(default_factory=dict)
 
 
-def variants(data: dict) -> dict[str, dict]:
-    """The strategies' configs, derived from one merged scenario config."""
+def dynamic_variant(harmonic: dict, plant_outputs) -> dict | None:
+    """The ``harmonic:`` changes of the dynamic feed-forward variant (``gain: auto``: its
+    estimate loop, not the phasors', sets the gain), or None where it cannot run (harmonics
+    other than 1x, sensors that are not plant outputs: no disturbance model; online
+    identification)."""
+    if [float(h) for h in harmonic.get("harmonics", [1])] != [1.0] or plant_outputs is None \
+            or not set(harmonic.get("sensors", [])) <= set(plant_outputs) \
+            or harmonic.get("identification") is not None:
+        return None
+    return {**LAWS["harmonic Newton"], "adapt_in": "excitations", "feedforward": "dynamic",
+            "gain": "auto", "refresh_samples": int(harmonic.get("refresh_samples")
+                                                   or DYNAMIC_REFRESH)}
+
+
+def variants(data: dict, plant_outputs=None) -> dict[str, dict]:
+    """The strategies' configs, derived from one merged scenario config; ``plant_outputs``:
+    the machine's output names (the dynamic feed-forward needs its sensors among them)."""
     if "harmonic" not in data:
         raise ModelError("the strategy study needs a scenario with a `harmonic:` section "
                          "(e.g. include harmonic_bearings.yaml)")
@@ -82,6 +105,9 @@ def variants(data: dict) -> dict[str, dict]:
         make("feedback", True, None)
     for name, law in LAWS.items():
         make(name, False, law)
+    dynamic = dynamic_variant(data["harmonic"], plant_outputs)
+    if dynamic is not None:
+        make(DYNAMIC, False, dynamic)
     if data.get("controllers"):
         make("feedback + harmonic Newton", True, LAWS["harmonic Newton"])
     if data.get("model") in models_supporting("feedforward"):
@@ -118,6 +144,8 @@ def robustness(scenario, block) -> dict:
     G = block.schedule.at(w)
     gain = block.gain_at(w)
     loop = machine_sampled_loop(scenario.machine, T)
+    if isinstance(block, DynamicHarmonicController):
+        return _dynamic_robustness(loop, w, block)
     lwi = loop.with_inputs(w, w, block.actuator_ids, block.sensors)
 
     def radius(g, est=G):
@@ -148,6 +176,23 @@ def robustness(scenario, block) -> dict:
             "exact_phase_limit_deg": limits[True]}
 
 
+def _dynamic_robustness(loop, w: float, block) -> dict:
+    """The dynamic feed-forward's estimate loop (:func:`.lti.excitation_loop_poles`, which
+    assumes the exact model): ``max |z|`` and gain margin; no phase-error limits."""
+    s = block.settings
+    H = block.schedule.disturbance_at(w)
+
+    def radius(g):
+        return excitation_loop_poles(loop, w, w, block.sensors, H, s.law, g,
+                                     effort_weight=s.effort_weight, leakage=s.leakage,
+                                     sensor_weights=s.sensor_weights).max_abs_z
+
+    r0 = radius(block.gain_at(w))
+    return {"speed_hz": w / (2 * np.pi), "max_abs_z_per_rev": r0, "stable": r0 < 1.0,
+            "gain_margin": stable_gain_limit(radius, block.gain_at(w)),
+            "phase_limit_deg": None, "exact_phase_limit_deg": None}
+
+
 def model_resonances(scenario, sensors) -> list[tuple[str, float]]:
     """``(sensor, Hz)`` of the resonance peaks of the uncontrolled model over the profile's
     speeds (the scenario's own unbalance)."""
@@ -173,18 +218,30 @@ def peak_reductions(result, reference, sensors, resonances) -> dict:
     return out
 
 
-def strategy_study(data: dict, scenario_from_config, source: str = ""
-                   ) -> tuple[list[StrategyResult], list[str]]:
+def _say(bar: Progress, text: str) -> None:
+    if bar.enabled:
+        print(text, file=bar.stream, flush=True)
+
+
+def strategy_study(data: dict, scenario_from_config, source: str = "", progress: bool = False,
+                   stream=None) -> tuple[list[StrategyResult], list[str]]:
     """Run every strategy of a scenario config; ``(results, sensor names)``.
     ``scenario_from_config(data, source)`` builds each variant's scenario
-    (:func:`rotor_avc.scenario.scenario_from_config`, the composition root above this room)."""
-    configs = variants(data)
-    sensors = list(data["harmonic"].get("sensors", []))
+    (:func:`rotor_avc.scenario.scenario_from_config`, the composition root above this room);
+    ``progress``: one line per strategy started and finished, with the elapsed time and the
+    time left (on ``stream``, default stderr)."""
+    sensors = list(data["harmonic"].get("sensors", [])) if "harmonic" in data else []
+    outputs = ([o.name for o in scenario_from_config(data, source).machine.plant.outputs]
+               if sensors else None)
+    configs = variants(data, outputs)
     if not sensors:
         raise ModelError("harmonic.sensors is empty: nothing to rate the strategies on")
     start_s = float(data["harmonic"].get("start_s", 0.0))
     results, reference = [], None
-    for name, cfg in configs.items():
+    bar = Progress(len(configs), enabled=progress, stream=stream, unit="strategies")
+    for i, (name, cfg) in enumerate(configs.items()):
+        _say(bar, f"{name}: started  {bar.line(i)}")
+        started = time.perf_counter()
         sc = scenario_from_config(cfg, source)
         block = sc.harmonic()
         ts = sc.run(harmonic=block, progress=False)
@@ -206,6 +263,7 @@ def strategy_study(data: dict, scenario_from_config, source: str = ""
             float(max((np.abs(v).max() for v in forces), default=0.0)),
             float(max((np.abs(v).max() for v in feet), default=math.nan)),
             robustness(sc, block) if block is not None else {}))
+        _say(bar, f"{name}: done in {time.perf_counter() - started:.0f} s  {bar.line(i + 1)}")
     if sc.profile.speeds_rad_s.size > 1:
         resonances = model_resonances(scenario_from_config(configs["no control"], source), sensors)
         for r in results:

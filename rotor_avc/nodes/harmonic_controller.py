@@ -12,8 +12,10 @@ arrived, and publishes its forces on ``harmonic/forces`` (labelled array ``time_
 <actuator>_f<axis>...``), which the plant adds to the feedback controllers' forces -- in lockstep
 the plant waits for it as for a foot controller. A repeated stamp is answered from the cache;
 after each update ``harmonic/status`` (labelled array: ``time_s, mode, updates, |E| per
-harmonic and sensor, |U| per harmonic and actuator``; mode 0 off, 1 adapting, 2 frozen,
-3 fading) and ``/diagnostics`` carry the estimate's state. Malformed messages are ignored and
+harmonic and sensor, |U| per harmonic and actuator, fallbacks``; mode 0 off, 1 adapting,
+2 frozen, 3 fading, 4 identifying; ``fallbacks`` the supervisor's fall-backs, see
+:mod:`rotor_avc.harmonic.supervisor`) and ``/diagnostics`` (mode, reason, fall-backs) carry the
+estimate's state. Malformed messages are ignored and
 reported.
 """
 from __future__ import annotations
@@ -62,7 +64,8 @@ class HarmonicControllerNode(FeatureNode):
         self.status_msg = m.LabelledBytes(
             ["mode", "updates"] + [f"E{h}_{s}" for h in self.block.harmonics
                                    for s in self.block.sensors]
-            + [f"U{h}_{a}" for h in self.block.harmonics for a in self.block.actuator_ids])
+            + [f"U{h}_{a}" for h in self.block.harmonics for a in self.block.actuator_ids]
+            + ["fallbacks"])
         self.pub_forces = taps.publisher(self, Float64MultiArray, m.topic("harmonic/forces", ns),
                                          m.LOCKSTEP_QOS)
         self.pub_status = taps.publisher(self, Float64MultiArray, m.topic("harmonic/status", ns),
@@ -133,17 +136,19 @@ class HarmonicControllerNode(FeatureNode):
             b = self.block
             self.pub_status.publish(self.status_msg.fill(stamp * 1e-9, [
                 MODES.index(b.mode), b.n_updates, *abs(b.E).ravel().tolist(),
-                *abs(b.U).ravel().tolist()]))
+                *abs(b.U).ravel().tolist(), b.status["fallbacks"]]))
 
     def _publish(self, stamp: int) -> None:
         self.pub_forces.publish(self.forces_msg.fill(stamp * 1e-9, self.forces))
 
     def status(self) -> tuple[str, str, dict]:
         st = self.block.status
-        level = "warn" if self.last_fault or st["mode"] in ("frozen", "fading") else "ok"
+        level = "warn" if self.last_fault or st["fallbacks"] or st["mode"] in (
+            "frozen", "fading", "identifying") else "ok"
         text = self.last_fault or f"harmonic control: {st['mode']}"
         return level, text, {"mode": st["mode"], "updates": st["updates"],
-                             "saturated": st["saturated"], "reason": st["reason"]}
+                             "saturated": st["saturated"], "reason": st["reason"],
+                             "fallbacks": st["fallbacks"]}
 
 
 def main(args=None) -> int:

@@ -1,0 +1,115 @@
+"""``rotor-avc harmonic commission SCENARIO``: the influence matrix identified on the machine with
+test phasors, the margin checked, the table written as a config (rotor_avc.harmonic.commission).
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import yaml
+
+from ..config import config_dirs, load_config
+from ..errors import ConfigError, ModelError
+from ..output_files import make_folder, write_text
+
+NAME = "harmonic"
+HELP = ("Adaptive harmonic control on the machine: commission identifies the influence matrix "
+        "with test phasors (bounded force and added vibration), checks the loop's phase margin "
+        "with it and writes the table as a config the controller uses.")
+EXAMPLE = ("rotor-avc harmonic commission scenario_harmonic_case2_steady --out out/commission "
+           "--test-force-n 50")
+EXIT_REFUSED = 1
+
+
+def add_arguments(p) -> None:
+    sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
+    s = sub.add_parser("commission", help="identify the influence matrix, check the margin, "
+                                          "write the table (exit 1: refused, with the reason)")
+    s.add_argument("scenario", help="the machine: a scenario with a `harmonic:` section")
+    s.add_argument("--model", help="the controller's model config (the loop of the margin "
+                                   "check; default: the scenario's machine)")
+    s.add_argument("--speed-hz", help="speeds F[,F...] (default: the scenario's constant speed)")
+    s.add_argument("--out", default="out/commission", help="folder of commissioned.yaml and "
+                                                          "commission.json")
+    s.add_argument("--test-force-n", type=float, help="harmonic.commission.test_force_n")
+    s.add_argument("--max-added-vibration", type=float,
+                   help="harmonic.commission.max_added_vibration (sensor unit)")
+    s.add_argument("--min-margin-deg", type=float,
+                   help="harmonic.commission.min_phase_margin_deg")
+
+
+def _speeds(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        speeds = [float(v) for v in text.split(",")]
+    except ValueError:
+        speeds = []
+    if not speeds or min(speeds) <= 0:
+        raise ConfigError("--speed-hz", f"{text!r} is not a list of speeds > 0",
+                          fix="e.g. --speed-hz 17.24 or --speed-hz 20,50")
+    return speeds
+
+
+def _include(source: str, out: Path, data: dict) -> str:
+    """The scenario as the written config includes it: its own file where a config may
+    include it from (the output folder or a shipped config), else a copy in ``out``."""
+    path = Path(source).resolve()
+    if path.is_relative_to(out.resolve()) or any(path.is_relative_to(Path(d).resolve())
+                                                  for d in config_dirs()):
+        return os.path.relpath(path, out.resolve())
+    write_text(out / "scenario.yaml", f"# {source}, merged\n" + yaml.safe_dump(data))
+    return "scenario.yaml"
+
+
+def _document(result) -> dict:
+    def cx(a):
+        return [[[float(v.real), float(v.imag)] for v in row] for row in a]
+    return {"sensors": list(result.sensors), "actuators": list(result.actuators),
+            "harmonics": list(result.harmonics), "accepted": result.refusal is None,
+            "refusal": result.refusal, "min_phase_margin_deg": result.min_phase_margin_deg,
+            "speeds": [{"speed_hz": r.speed_hz, "identified": [cx(G) for G in r.identified],
+                        "model": [cx(G) for G in r.margin.model],
+                        "test_force_n": r.levels_n.tolist(), "settling": r.settling.tolist(),
+                        "phase_margin_deg": r.margin.phase_margin_deg,
+                        "quasi_steady_limit_deg": list(r.margin.quasi_steady_deg),
+                        "exact_limit_deg": r.margin.exact_deg, "radius": r.margin.radius,
+                        "log": list(r.log)} for r in result.speeds]}
+
+
+def run(args) -> int:
+    from ..harmonic.commission import commission
+    from ..machine import load_machine
+    from ..scenario import scenario_from_config
+    cfg = load_config(args.scenario)
+    model = load_machine(args.model) if args.model else None
+    try:
+        result = commission(cfg.data, cfg.source, scenario_from_config, model,
+                            _speeds(args.speed_hz), test_force_n=args.test_force_n,
+                            max_added_vibration=args.max_added_vibration,
+                            min_phase_margin_deg=args.min_margin_deg)
+    except ModelError as exc:
+        raise ConfigError("harmonic", str(exc), source=cfg.source) from None
+    out = make_folder(Path(args.out))
+    write_text(out / "commission.json", json.dumps(_document(result), indent=1) + "\n")
+    for r in result.speeds:
+        print(f"{r.speed_hz:g} Hz: test levels {r.levels_n.round(3).tolist()} N, settling "
+              f"{r.settling.max():.2g}, phase margin {r.margin.phase_margin_deg:.1f} deg "
+              f"(quasi-steady {min(r.margin.quasi_steady_deg):.1f}, exact "
+              f"{r.margin.exact_deg:.1f}, radius {r.margin.radius:.4f})")
+        for line in r.log:
+            print(f"  {line}")
+    if result.refusal is not None:
+        print(f"rotor-avc harmonic: refused: {result.refusal}", file=sys.stderr)
+        return EXIT_REFUSED
+    doc = {"include": [_include(cfg.source, out, cfg.data)],
+           "harmonic": {"influence": {"phase_error_deg": 0.0, "magnitude_factor": 1.0,
+                                      "table": result.table()}}}
+    header = (f"# rotor-avc harmonic commission {Path(cfg.source).name}: the influence matrix "
+              f"identified on the machine, phase margin {result.phase_margin_deg:.1f} deg\n")
+    path = write_text(out / "commissioned.yaml", header + yaml.safe_dump(doc, sort_keys=False))
+    print(f"wrote {path} (phase margin {result.phase_margin_deg:.1f} deg) and "
+          f"{out / 'commission.json'}")
+    return 0
