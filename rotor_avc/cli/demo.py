@@ -17,6 +17,7 @@
 """
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import time
@@ -129,13 +130,11 @@ def record(scenario: str, bag: Path, logs: Path, in_process: bool,
            layout: str = "processes") -> Path:
     """Run one scenario through the ROS graph (or in-process) and record it to ``bag``; prints
     the messages published and recorded per topic."""
-    if not in_process:
-        try:
-            import rclpy  # noqa: F401  (the graph's nodes need it)
-        except ImportError:
-            return _record_in_process(scenario, bag, "rclpy is not installed")
-        return record_graph(scenario, bag, logs, layout)
-    return _record_in_process(scenario, bag, "requested")
+    if in_process:
+        return _record_in_process(scenario, bag, "requested")
+    if importlib.util.find_spec("rclpy") is None:        # found, not imported: nodes/ imports it
+        return _record_in_process(scenario, bag, "rclpy is not installed")
+    return record_graph(scenario, bag, logs, layout)
 
 
 def _record_in_process(scenario: str, bag: Path, why: str) -> Path:
