@@ -79,7 +79,7 @@ def estimate_errors(gain, revolutions=400, samples_per_rev=77):
     truth = np.array([scen.amplitudes[e] for e in block.schedule.excitations])
     reset, update, errors = block.reset, block._update, []
     block.reset = lambda: (reset(), block.C.__setitem__(slice(None), 1.001 * truth))
-    block._update = lambda signals: (update(signals), errors.append(
+    block._update = lambda: (update(), errors.append(
         np.abs(block.C - truth).max() / np.abs(truth).max()))
     scen.run(harmonic=block)
     return np.array(errors), block, scen

@@ -48,6 +48,7 @@ Python floats; numpy runs once per update.
 from __future__ import annotations
 
 import math
+from cmath import rect
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +57,7 @@ from ..errors import ModelError
 from .identification import InfluenceRls
 from .influence import InfluenceSchedule
 from .laws import check_law, update_matrices
-from .supervisor import Supervisor, SupervisorSettings
+from .supervisor import Supervisor, SupervisorSettings, norm2
 
 FALLBACKS = ("freeze", "fade")
 ADAPT_IN = ("forces", "excitations")
@@ -147,7 +148,7 @@ class HarmonicController:
         self.sensors = schedule.sensors
         self.actuator_ids = schedule.actuators
         self.harmonics = schedule.harmonics
-        self._hm = [(h, hi * m) for hi, h in enumerate(self.harmonics)]
+        self._one = self.harmonics == (1,)
         self._shape = (len(self.harmonics), m, n)
         self._min_speed = TWO_PI * settings.min_speed_hz
         self._max_speed = float(schedule.speeds_rad_s[-1])
@@ -180,26 +181,28 @@ class HarmonicController:
         self.n_updates = 0
         self.saturated = False
         self.supervisor = Supervisor(s.supervisor) if self._supervise else None
+        self._laws: dict = {}
         self._clear_window()
         self._set_outputs()
 
     def _clear_window(self) -> None:
-        self._acc = [0.0] * (2 * self._shape[0] * self._shape[1])
+        self._sig: list = []            # the window's samples: signals (flat), angles, angle steps
+        self._ang: list = []
+        self._w: list = []
         self._span = 0.0
-        self._count = 0
 
     def _set_outputs(self) -> None:
         A = self.U + self.D
-        self._out = [(h, A[hi].real.tolist(), A[hi].imag.tolist())
-                     for hi, h in enumerate(self.harmonics)]
+        self._out = A.tolist()
         self._zero = [0.0] * self._shape[2]
 
     @property
     def state(self) -> dict:
         """Everything the next steps depend on (arrays copied)."""
         return {"k": self.k, "mode": self.mode, "reason": self.reason, "U": self.U.copy(),
-                "D": self.D.copy(), "E": self.E.copy(), "C": self.C.copy(), "acc": list(self._acc),
-                "span": self._span, "count": self._count, "ref": self._ref, "poor": self._poor,
+                "D": self.D.copy(), "E": self.E.copy(), "C": self.C.copy(),
+                "window": (list(self._sig), list(self._ang), list(self._w)),
+                "span": self._span, "ref": self._ref, "poor": self._poor,
                 "n_updates": self.n_updates,
                 "prev": None if self._prev is None else tuple(a.copy() for a in self._prev),
                 "rls": [(r.correction.copy(), r.covariance.copy(), r.residual, r.n_updates)
@@ -211,15 +214,16 @@ class HarmonicController:
         """Restore a :attr:`state`."""
         H, m, n = self._shape
         U, D = np.asarray(state["U"], complex), np.asarray(state["D"], complex)
-        if U.shape != (H, n) or D.shape != (H, n) or len(state["acc"]) != 2 * H * m \
+        sig, ang, w = state["window"]
+        if U.shape != (H, n) or D.shape != (H, n) or not len(sig) == m * len(ang) == m * len(w) \
                 or state["mode"] not in MODES:
             raise ModelError(f"harmonic state does not fit {H} harmonics x {m} sensors x "
                              f"{n} actuators")
         self.k, self.mode, self.reason = int(state["k"]), state["mode"], state["reason"]
         self.U, self.D, self.E = U.copy(), D.copy(), np.asarray(state["E"], complex).copy()
         self.C = np.asarray(state["C"], complex).copy()
-        self._acc, self._span, self._count = [float(v) for v in state["acc"]], \
-            float(state["span"]), int(state["count"])
+        self._sig, self._ang, self._w = [float(v) for v in sig], list(ang), list(w)
+        self._span = float(state["span"])
         self._ref, self._poor, self.n_updates = state["ref"], state["poor"], state["n_updates"]
         self._prev = None if state["prev"] is None else tuple(a.copy() for a in state["prev"])
         for r, (corr, cov, res, nu) in zip(self.rls, state["rls"]):
@@ -242,36 +246,35 @@ class HarmonicController:
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self, signals, angle: float, speed: float) -> list[float]:
-        """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
-        if not self._counted_on(speed):
+        """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N).
+
+        Per sample the window keeps the signals, the angle and its step, and the forces are one
+        complex product per actuator and harmonic; the demodulation runs once per update
+        (:meth:`_demodulate`)."""
+        k = self.k
+        self.k = k + 1
+        if (self.mode == "off" or not self._min_speed <= speed <= self._max_speed) \
+                and not self._may_run(k, speed):
             return self._zero
         w = speed * self.sample_period_s
-        acc = self._acc
-        trig = []
-        for h, base in self._hm:
-            c = math.cos(h * angle)
-            s = math.sin(h * angle)
-            trig.append((c, s))
-            cw, sw = c * w, s * w
-            i = 2 * base
-            for v in signals:
-                acc[i] += v * cw
-                acc[i + 1] -= v * sw
-                i += 2
-        if self._window_done(w):
-            self._update(signals)
+        self._sig.extend(signals)
+        self._ang.append(angle)
+        self._w.append(w)
+        self._span += w
+        if (len(self._w) >= self._every) if self._every else self._span >= TWO_PI:
+            self._update()
         elif self._refresh:
             self._since_refresh += 1
             if self._since_refresh >= self._refresh and self.mode == "adapting":
                 self._synthesise(speed)
-        if len(trig) == 1:
-            c, s = trig[0]
-            _, re, im = self._out[0]
-            return [a * c - b * s for a, b in zip(re, im)]
+        if self._one:
+            e = rect(1.0, angle)
+            return [(a * e).real for a in self._out[0]]
         forces = list(self._zero)
-        for (c, s), (_, re, im) in zip(trig, self._out):
-            for j in range(len(forces)):
-                forces[j] += re[j] * c - im[j] * s
+        for h, phasors in zip(self.harmonics, self._out):
+            e = rect(1.0, h * angle)
+            for j, a in enumerate(phasors):
+                forces[j] += (a * e).real
         return forces
 
     def _counted_on(self, speed: float) -> bool:
@@ -282,12 +285,32 @@ class HarmonicController:
             return self._may_run(k, speed)
         return True
 
-    def _window_done(self, w: float) -> bool:
-        """Count a sample of angle step ``w`` into the window; True at its last sample."""
+    def _window_done(self, signals, angle: float, w: float) -> bool:
+        """Keep a sample (angle step ``w``) in the window; True at the window's last sample."""
+        self._sig.extend(signals)
+        self._ang.append(angle)
+        self._w.append(w)
         self._span += w
-        self._count += 1
         every = self._every
-        return (self._count >= every) if every else (self._span >= TWO_PI)
+        return (len(self._w) >= every) if every else (self._span >= TWO_PI)
+
+    def _window_signals(self) -> np.ndarray:
+        """The window's signals (samples, sensors) that are demodulated."""
+        return np.array(self._sig, dtype=float).reshape(-1, self._shape[1])
+
+    def _demodulate(self) -> np.ndarray:
+        """``E_h = 2 sum_k e_k e^{-j h theta_k} w_k / sum_k w_k`` (H, M) over the window
+        (module docstring)."""
+        S = self._window_signals()
+        h = np.asarray(self.harmonics, dtype=float)[:, None]
+        Z = np.asarray(self._w) * np.exp(-1j * h * np.asarray(self._ang))
+        E = (2.0 / self._span) * (Z @ S)
+        if not np.isfinite(E).all():               # a non-finite sample reaches E (w_k > 0)
+            bad = ~np.all(np.isfinite(S), axis=0)
+            raise ModelError(f"{self.name}: non-finite signal of "
+                             f"{', '.join(np.asarray(self.sensors)[bad])} in the last window "
+                             "(sensor fault?)")
+        return E
 
     def _may_run(self, k: int, speed: float) -> bool:
         """Switch on (from zero) or off at this sample; True while on."""
@@ -308,16 +331,11 @@ class HarmonicController:
             self._set_outputs()
         return on
 
-    def _update(self, signals) -> None:
+    def _update(self) -> None:
         """End of a window: phasors, identification, fallback checks, law, limits."""
         H, m, n = self._shape
-        acc = np.array(self._acc)
-        E = (2.0 / self._span) * (acc[0::2] + 1j * acc[1::2]).reshape(H, m)
-        if not np.all(np.isfinite(E)):
-            bad = [name for name, v in zip(self.sensors, signals) if not math.isfinite(v)]
-            raise ModelError(f"{self.name}: non-finite sensor signal in the last window "
-                             f"({', '.join(bad) or 'earlier sample'}; sensor fault?)")
-        speed = self._span / (self._count * self.sample_period_s)
+        E = self._demodulate()
+        speed = self._span / (len(self._w) * self.sample_period_s)
         self._clear_window()
         self.E = E
         self.n_updates += 1
@@ -334,7 +352,7 @@ class HarmonicController:
                 self._poor = self._poor + 1 if worst > s.poor_residual else 0
         self._prev = (A.copy(), E.copy())
         self.estimate = prior + np.array([r.correction for r in self.rls])
-        norm = float(np.linalg.norm(E))
+        norm = norm2(E)
         if self._ref is None:
             self._ref = norm / speed**2
         if self.mode == "adapting":
@@ -351,9 +369,7 @@ class HarmonicController:
             self._update_excitations(E[0] - self.estimate[0] @ self.D[0], speed)
         elif self.mode == "adapting":
             for hi in range(H):
-                A_U, B = update_matrices(self.estimate[hi], s.law, self.gain_at(speed),
-                                         effort_weight=s.effort_weight, leakage=s.leakage,
-                                         sensor_weights=s.sensor_weights)
+                A_U, B = self._law(self.estimate[hi], speed)
                 e = E[hi] - self.estimate[hi] @ self.D[hi]
                 self.U[hi] = A_U @ self.U[hi] - B @ e
         if self.mode == "adapting":
@@ -382,6 +398,21 @@ class HarmonicController:
         self.D[:] = 0.0
         return True
 
+    def _law(self, G: np.ndarray, speed: float) -> tuple[np.ndarray, np.ndarray]:
+        """The law's ``(A, B)`` (:func:`.laws.update_matrices`) on ``G`` at this speed's gain,
+        kept while ``G`` and the gain repeat (a steady speed without identification)."""
+        gain = self.gain_at(speed)
+        key = (G.tobytes(), gain)
+        hit = self._laws.get(key)
+        if hit is None:
+            s = self.settings
+            hit = update_matrices(G, s.law, gain, effort_weight=s.effort_weight,
+                                  leakage=s.leakage, sensor_weights=s.sensor_weights)
+            if len(self._laws) >= 16:
+                self._laws.clear()
+            self._laws[key] = hit
+        return hit
+
     def gain_at(self, speed: float) -> float:
         """The adaptation gain at this speed (the schedule's nearest node, else ``gain``)."""
         s = self.settings
@@ -400,10 +431,7 @@ class HarmonicController:
 
     def _update_excitations(self, e: np.ndarray, speed: float) -> None:
         """Adapt the excitation estimate (the law acting on ``K``), then the phasors from it."""
-        s = self.settings
-        _, K = self._source_map(speed)
-        A_C, B = update_matrices(K, s.law, self.gain_at(speed), effort_weight=s.effort_weight,
-                                 leakage=s.leakage, sensor_weights=s.sensor_weights)
+        A_C, B = self._law(self._source_map(speed)[1], speed)
         self.C = A_C @ self.C + B @ e
         self._synthesise(speed, limit=False)
 
@@ -424,6 +452,9 @@ class HarmonicController:
     def _limit(self, speed: float) -> None:
         """Scale each actuator's phasors into the force and slope limits (anti-windup)."""
         s = self.settings
+        if s.force_limit_n == math.inf and s.rate_limit_n_per_s == math.inf:
+            self.saturated = False
+            return
         A = np.abs(self.U + self.D)
         h = np.array(self.harmonics, dtype=float)[:, None]
         peak = A.sum(axis=0)

@@ -27,6 +27,7 @@ prediction and estimate stay consistent.
 from __future__ import annotations
 
 import math
+from cmath import rect
 
 import numpy as np
 
@@ -34,7 +35,6 @@ from ..errors import ModelError
 from .block import HarmonicController, HarmonicSettings
 from .influence import InfluenceSchedule
 from .internal_model import InternalLoop, InternalTables
-from .laws import update_matrices
 
 
 class DynamicHarmonicController(HarmonicController):
@@ -64,7 +64,7 @@ class DynamicHarmonicController(HarmonicController):
         self._j = self._r
         self._restart = False
         n, m = len(self.actuator_ids), len(self.sensors)
-        self._F = ([0.0] * n, [0.0] * n)
+        self._F = [0j] * n
         self._ftr = [[0.0] * n] * self._r
         self._pred = [[0.0] * m] * self._r
 
@@ -72,7 +72,7 @@ class DynamicHarmonicController(HarmonicController):
     def state(self) -> dict:
         out = super().state
         out.update(j=self._j, restart=self._restart, internal=self._loop.state, F=self._F,
-                   ftr=self._ftr, pred=self._pred)
+                   ftr=self._ftr, pred=self._pred, preds=list(self._preds))
         return out
 
     def set_state(self, state: dict) -> None:
@@ -80,6 +80,7 @@ class DynamicHarmonicController(HarmonicController):
         self._loop.set_state(state["internal"])
         self._j, self._restart, self._F, self._ftr, self._pred = (
             int(state["j"]), bool(state["restart"]), state["F"], state["ftr"], state["pred"])
+        self._preds = [float(p) for p in state["preds"]]
 
     def step(self, signals, angle: float, speed: float) -> list[float]:
         """Sensor signals at ``t_k``, shaft angle (rad) and speed (rad/s) -> forces (N)."""
@@ -90,21 +91,20 @@ class DynamicHarmonicController(HarmonicController):
             self._start_block(angle, speed, j)
             j = 0
         self._j = j + 1
-        c = math.cos(angle)
-        s = math.sin(angle)
-        w = speed * self.sample_period_s
-        cw, sw = c * w, s * w
-        acc = self._acc
-        i = 0
-        for v, p in zip(signals, self._pred[j]):
-            d = v - p
-            acc[i] += d * cw
-            acc[i + 1] -= d * sw
-            i += 2
-        if self._window_done(w):
-            self._update(signals)
-        re, im = self._F
-        return [a * c - b * s + t for a, b, t in zip(re, im, self._ftr[j])]
+        self._preds.extend(self._pred[j])
+        if self._window_done(signals, angle, speed * self.sample_period_s):
+            self._update()
+        e = rect(1.0, angle)
+        return [(a * e).real + t for a, t in zip(self._F, self._ftr[j])]
+
+    def _clear_window(self) -> None:
+        super()._clear_window()
+        self._preds: list = []          # the model's predicted signals at the window's samples
+
+    def _window_signals(self) -> np.ndarray:
+        """The measured signals minus the internal model's prediction."""
+        return super()._window_signals() - np.array(self._preds, dtype=float).reshape(
+            -1, len(self.sensors))
 
     def _may_run(self, k: int, speed: float) -> bool:
         was_on = self.mode != "off"
@@ -112,7 +112,7 @@ class DynamicHarmonicController(HarmonicController):
         if on != was_on:
             self._loop.reset()
             self._j = self._r
-            self._F = (self._zero, self._zero)
+            self._F = [0j] * len(self._zero)
         return on
 
     def _start_block(self, angle: float, speed: float, elapsed: int) -> None:
@@ -142,17 +142,14 @@ class DynamicHarmonicController(HarmonicController):
         self._set_block(F, ftr, pred)
 
     def _set_block(self, F, ftr, pred) -> None:
-        self._F = (F.real.tolist(), F.imag.tolist())
+        self._F = F.tolist()
         self._ftr = ftr.tolist()
         self._pred = pred.tolist()
 
     def _update_excitations(self, e: np.ndarray, speed: float) -> None:
         """Adapt the estimate on the disturbance model (the residual's map); a new block starts
         with it at the next sample."""
-        s = self.settings
-        A_C, B = update_matrices(self.schedule.disturbance_at(speed), s.law, self.gain_at(speed),
-                                 effort_weight=s.effort_weight, leakage=s.leakage,
-                                 sensor_weights=s.sensor_weights)
+        A_C, B = self._law(self.schedule.disturbance_at(speed), speed)
         self.C = A_C @ self.C + B @ e
         self._restart = True
 

@@ -63,15 +63,15 @@ def update_matrices(G_est: np.ndarray, law: str, gain: float, *, effort_weight: 
     check_law(law, gain, effort_weight, leakage)
     sw = np.sqrt(w)
     Gw = sw[:, None] * G
-    s2 = float(np.linalg.norm(Gw, 2)) ** 2
-    if s2 == 0.0:
+    if not np.any(Gw):
         raise ModelError("the influence estimate is zero: the actuators do not reach the sensors")
     eye = np.eye(n)
+    if law == "newton":
+        return (1 - leakage) * eye + 0j, gain * np.linalg.pinv(Gw) * sw
+    s2 = float(np.linalg.norm(Gw, 2)) ** 2
     R = effort_weight * s2 * eye
     if law == "steepest_descent":
         return (1 - leakage) * eye - gain * R / s2, gain * (G.conj().T * w) / s2
-    if law == "newton":
-        return (1 - leakage) * eye + 0j, gain * np.linalg.pinv(Gw) * sw
     H = Gw.conj().T @ Gw + R
     return ((1 - leakage) * eye - gain * np.linalg.solve(H, R),
             gain * np.linalg.solve(H, G.conj().T * w))

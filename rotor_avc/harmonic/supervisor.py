@@ -79,6 +79,7 @@ class Supervisor:
     def restart(self) -> None:
         """Switch-on: forget the levels and the sequence (the fall-back count stays)."""
         self.off = None                 # (|E_off| per harmonic, speed)
+        self.off_norm = 0.0             # |E_off| over all harmonics
         self.best = None                # (|E|, A)
         self.prev = None                # (E, A, speed)
         self.grow = 0
@@ -109,16 +110,17 @@ class Supervisor:
         """This update's error ``E`` (H, M) with phasors ``A`` (H, N) applied, the influence
         estimate (H, M, N): the phasors to hold next (and :attr:`mode`), or None to adapt."""
         s = self.settings
-        norm = float(np.linalg.norm(E))
+        norm = norm2(E)
         self.updates += 1
         if self.off is None:
             self.off = (np.linalg.norm(E, axis=1), speed)
+            self.off_norm = norm
         if self.busy:
             return self._sequence(E, A, estimate, speed)
         if self.best is None or norm < self.best[0]:
             self.best = (norm, A.copy())
         prev, self.prev = self.prev, (E.copy(), A.copy(), speed)
-        off_norm = float(np.linalg.norm(self.off[0]))
+        off_norm = self.off_norm
         if abs(speed / self.off[1] - 1) <= s.speed_tolerance \
                 and norm > off_norm * 10 ** (s.margin_db / 20):
             return self._fall_back(f"error {_db(norm, off_norm):.1f} dB above the level with "
@@ -127,8 +129,8 @@ class Supervisor:
             self.grow = 0
             return None
         E0, A0, _ = prev
-        before = float(np.linalg.norm(E0))
-        predicted = float(np.linalg.norm(E0 + np.einsum("hmn,hn->hm", estimate, A - A0)))
+        before = norm2(E0)
+        predicted = norm2(E0 + (estimate @ (A - A0)[:, :, None])[:, :, 0])
         watched = norm > off_norm * 10 ** (s.watch_db / 20)
         self.grow = self.grow + 1 if watched and norm > before and predicted < before else 0
         if self.grow >= s.growth_revolutions:
@@ -167,7 +169,7 @@ class Supervisor:
         step = self.plan.pop(0)
         off = self.off[0]
         if step == "base":
-            if float(np.linalg.norm(E)) > float(np.linalg.norm(off)) * 10 ** (s.margin_db / 20) \
+            if norm2(E) > self.off_norm * 10 ** (s.margin_db / 20) \
                     and np.any(self.hold):
                 self.hold = np.zeros_like(self.hold)
                 self.reason += "; held level above the margin: zero phasors"
@@ -188,6 +190,11 @@ class Supervisor:
         self.prev, self.grow, self.mode = None, 0, "adapting"
         self.reason += "; re-identified, adapting again"
         return hold
+
+
+def norm2(x: np.ndarray) -> float:
+    """The 2-norm of an array's entries (``np.linalg.norm`` without its per-call checks)."""
+    return math.sqrt(np.vdot(x, x).real)
 
 
 def _db(level: float, ref: float) -> float:

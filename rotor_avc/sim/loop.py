@@ -19,6 +19,7 @@ added to the feedback forces).
 from __future__ import annotations
 
 import sys
+from operator import itemgetter
 import time
 from typing import Iterator, Mapping
 
@@ -75,10 +76,12 @@ def feedforward_positions(stepper: PlantStepper, controllers: Mapping, feedforwa
     return [ids.index(a) for a in feedforward.actuator_ids]
 
 
-def harmonic_plan(stepper: PlantStepper, controllers: Mapping, harmonic: Harmonic | None,
-                  ff_pos=()):
-    """``(signal indices in y, [(force position, added to another block's force?)])`` of a
-    harmonic controller block (:class:`~rotor_avc.blocks.Harmonic`), or None without one."""
+def harmonic_forces(stepper: PlantStepper, controllers: Mapping, harmonic: Harmonic | None,
+                    ff_pos=()):
+    """``apply(y_k, forces)`` of a harmonic controller block (:class:`~rotor_avc.blocks.
+    Harmonic`), or None without one: step the block on its signals in ``y_k`` and add its forces
+    to ``forces`` (to the feedback or feed-forward force where the actuator has one; ``forces``
+    starts from zero at each sample). Everything per sample is bound once, before the run."""
     if harmonic is None:
         return None
     ids = [a.id for a in stepper.plant.actuators]
@@ -87,20 +90,16 @@ def harmonic_plan(stepper: PlantStepper, controllers: Mapping, harmonic: Harmoni
         raise ModelError(f"harmonic actuators {missing} are not the plant's ({', '.join(ids)})")
     if abs(harmonic.sample_period_s - stepper.T) > 1e-12 * stepper.T:
         raise ModelError("the harmonic controller and the plant must share one sample rate")
-    return ([stepper.layout.index(name) for name in harmonic.sensors],
-            [(ids.index(a), a in controllers or ids.index(a) in ff_pos)
-             for a in harmonic.actuator_ids])
+    signals = [stepper.layout.index(name) for name in harmonic.sensors]
+    take = itemgetter(*signals) if len(signals) > 1 else lambda y, i=signals[0]: (y[i],)
+    positions = [ids.index(a) for a in harmonic.actuator_ids]
+    step, speed_state = harmonic.step, stepper.speed_state
 
-
-def harmonic_forces(stepper: PlantStepper, harmonic: Harmonic, plan, y: np.ndarray,
-                    forces: np.ndarray) -> None:
-    """Step the harmonic block on its signals in ``y_k``; add its forces to ``forces`` (to the
-    feedback or feed-forward force where the actuator has one)."""
-    item = y.item
-    speed, _, angle = stepper.speed_state()
-    out = harmonic.step([item(i) for i in plan[0]], angle, speed)
-    for (pos, add), f in zip(plan[1], out):
-        forces[pos] = forces[pos] + f if add else f
+    def apply(y: np.ndarray, forces: list) -> None:
+        speed, _, angle = speed_state()
+        for p, f in zip(positions, step(take(y), angle, speed)):
+            forces[p] += f
+    return apply
 
 
 def forces_from_answers(stepper: PlantStepper, answers: Mapping[str, float]) -> np.ndarray:
@@ -208,7 +207,7 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
     plan = control_plan(stepper, controllers)
     ff_pos = feedforward_positions(stepper, controllers, feedforward)
-    h_plan = harmonic_plan(stepper, controllers, harmonic, ff_pos)
+    h_apply = harmonic_forces(stepper, controllers, harmonic, ff_pos)
     if harmonic is not None:
         harmonic.reset()
     if feedforward is not None:
@@ -217,7 +216,7 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         progress = sys.stderr.isatty() and n_steps >= 50_000
     bar = Progress(n_steps, stepper.T, progress)
     y = start(stepper, controllers, initial_state, balancer)
-    u = np.zeros(stepper.n_inputs)
+    zero = [0.0] * stepper.n_inputs     # u_k: a list, element writes cost a tenth of an array's
     step = stepper.step
     for k0 in range(0, n_steps, block_steps):
         n = min(block_steps, n_steps - k0)
@@ -227,12 +226,14 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         for j in range(n):
             k = k0 + j
             Y[j] = y
+            u = zero.copy()
             controller_forces(plan, y, u)
             if feedforward is not None:
                 speed, _, angle = stepper.speed_state()
-                u[ff_pos] = feedforward.step(angle, speed)
-            if h_plan is not None:
-                harmonic_forces(stepper, harmonic, h_plan, y, u)
+                for pos, f in zip(ff_pos, feedforward.step(angle, speed)):
+                    u[pos] = f
+            if h_apply is not None:
+                h_apply(y, u)
             U[j] = u
             if balancer is not None:
                 balancer_update(stepper, balancer, k, y)
