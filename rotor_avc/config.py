@@ -145,3 +145,34 @@ def load_config(name: str | os.PathLike) -> "Section":
     """Find and load a configuration file as a validated :class:`Section`."""
     path = find_config(name)
     return Section(load_yaml(path), "", str(path))
+
+
+def _includes(path: Path, _seen: tuple[Path, ...] = ()) -> set[Path]:
+    """Every file ``path`` includes, directly or through others."""
+    path = path.resolve()
+    if path in _seen:
+        return set()
+    text = read_text(path)
+    data = parse(text, path)
+    found: set[Path] = set()
+    if isinstance(data, dict):
+        for inc in _include_list(data.get("include", []), text, path):
+            child = _include_path(inc, text, path).resolve()
+            found |= {child} | _includes(child, _seen + (path,))
+    return found
+
+
+def scenarios_using(name: str | os.PathLike) -> list[str]:
+    """The shipped scenarios (configs with a ``simulation:`` section) that include the config
+    ``name``, directly or through others."""
+    target = find_config(name).resolve()
+    names = []
+    for folder in config_dirs():
+        for path in sorted(folder.glob("*.yaml")):
+            try:
+                if target in _includes(path) and "simulation" in load_yaml(path):
+                    names.append(path.stem)
+            except ConfigError:
+                continue                  # a broken file is not a suggestion
+    return sorted(set(names))
+

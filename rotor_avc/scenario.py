@@ -39,7 +39,8 @@ from .balancing.loop_block import LoopBalancer
 from .block_kinds import BALANCER, FEEDBACK, FEEDFORWARD, HARMONIC, BlockKind
 from .balancing.scenario import machine_setup
 from .control.block import build_digital_controllers
-from .errors import ModelError
+from .config import scenarios_using
+from .errors import ConfigError, ModelError
 from .machine import Machine, load_machine, machine_from_config, model_supports, models_supporting
 from .settings import SimulationSettings, read_settings
 from .sim.broadband import BroadbandForce, broadband_from_config
@@ -247,8 +248,17 @@ def _feedforward_method(machine: Machine, sim, s: SimulationSettings) -> str | N
 
 
 def load_scenario(name) -> Scenario:
-    """Load a scenario file (a path or a shipped config name)."""
-    return scenario_from_machine(load_machine(name))
+    """Load a scenario file (a path or a shipped config name); a machine config (no
+    ``simulation:``) is refused naming the shipped scenarios that use it."""
+    machine = load_machine(name)
+    if not machine.config.has("simulation"):
+        using = scenarios_using(name)
+        raise ConfigError("simulation", "missing: this is a machine config, not a scenario",
+                          fix=("run a scenario that uses it: " + ", ".join(using)
+                               + ", or " if using else "")
+                          + "write one: `include:` this file and add `simulation:` "
+                            "(rotor-avc config new)", source=machine.config.source)
+    return scenario_from_machine(machine)
 
 
 def scenario_from_config(data, source: str = "") -> Scenario:

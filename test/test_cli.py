@@ -1,4 +1,5 @@
 """The command-line contract that users and checks depend on."""
+import argparse
 import csv
 import json
 import subprocess
@@ -104,3 +105,56 @@ def test_misspelt_names_get_the_closest_one(capsys):
     assert controlled_foot(machine, "dl") == "DL"               # ids compared without case
     with pytest.raises(ModelError, match=r"did you mean 'NL'\?.*controlled feet: DL, DR, NL"):
         controlled_foot(machine, "NLL")
+
+
+def test_speed_in_rpm_is_the_same_speed_in_hz(capsys):
+    """`--speed-rpm` is `--speed-hz` times 60 wherever a speed is taken (a single speed, a grid)."""
+    assert main(["poles", "foot_mount_case3", "--speed-rpm", "3000", "--json"]) == 0
+    in_rpm = json.loads(capsys.readouterr().out)
+    assert main(["poles", "foot_mount_case3", "--speed-hz", "50", "--json"]) == 0
+    assert in_rpm == json.loads(capsys.readouterr().out)
+    assert in_rpm["speed_hz"] == 50.0
+    args = build_parser("campbell").parse_args(["campbell", "x", "--speed-rpm", "0:6000:3"])
+    np.testing.assert_allclose(args.speed_hz, [0.0, 50.0, 100.0], rtol=0, atol=1e-12)
+    args = build_parser("harmonic").parse_args(["harmonic", "commission", "x",
+                                                "--speed-rpm", "1200,3000"])
+    assert args.speed_hz == [20.0, 50.0]
+    for command in COMMANDS:                   # every command with --speed-hz also takes rpm
+        for options in _option_sets(build_parser(command)):
+            assert ("--speed-hz" in options) == ("--speed-rpm" in options), command
+
+
+def _option_sets(parser):
+    """The option strings of each (sub-)parser under ``parser``."""
+    options, nested = set(), []
+    for action in parser._actions:
+        options.update(action.option_strings)
+        if isinstance(action, argparse._SubParsersAction):
+            nested += [s for p in action.choices.values() for s in _option_sets(p)]
+    return [options, *nested]
+
+
+def test_speed_options_refuse_in_their_unit():
+    """A bad rpm value is refused naming rpm, not Hz; both units at once are refused."""
+    r = run_cli("campbell", "foot_mount_case3", "--speed-rpm", "6000:0:5")
+    assert r.returncode == 2 and "rpm" in r.stderr and "Hz" not in r.stderr.split("error:")[1]
+    r = run_cli("poles", "foot_mount_case3", "--speed-rpm", "60", "--speed-hz", "1")
+    assert r.returncode == 2 and "not allowed with argument" in r.stderr
+
+
+def test_campbell_takes_the_configs_speed_grid_as_frf_does(capsys):
+    """Without `--speed-hz`, campbell uses the config's analysis.frf_speed_hz, as frf does."""
+    assert main(["campbell", "foot_mount_case3", "--json"]) == 0
+    speeds = json.loads(capsys.readouterr().out)["speed_hz"]
+    from rotor_avc.machine import load_machine
+    grid = load_machine("foot_mount_case3").analysis.frf_speed_hz
+    np.testing.assert_allclose(speeds, np.linspace(grid.start, grid.stop, grid.n), rtol=1e-12)
+
+
+def test_a_machine_config_run_as_a_scenario_names_the_scenarios_using_it():
+    r = run_cli("simulate", "foot_mount_case3", "--out", "x.npz")
+    assert r.returncode == 2
+    assert "this is a machine config, not a scenario" in r.stderr
+    assert "scenario_case3_steady" in r.stderr and "scenario_case3_stepped" in r.stderr
+    assert "scenario_case2_runup" not in r.stderr          # a case-2 machine
+    assert r.stderr.count("\n") == 1

@@ -16,7 +16,7 @@ from ..machine import load_machine
 from ..model_config.active_bearing import piezo_from_config, unbalance_kg_m
 from ..models.active_bearing import PLANES
 from ..reports.active_bearing_files import write_active_bearing_files
-from .common import output_folder, speed_range_hz
+from .common import add_speed_option, output_folder, speed_range_hz
 
 NAME = "active-bearing"
 HELP = ("Sci. Rep. 2023 active bearings: quantified actuator force and phase, RMS and insertion loss "
@@ -27,8 +27,8 @@ TWO_PI = 2 * np.pi
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name (active_bearing)")
-    p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
-                   help="IL sweep in Hz (default: the config's analysis.il_speed_hz)")
+    add_speed_option(p, speed_range_hz, "IL sweep in Hz (default: the config's "
+                     "analysis.il_speed_hz)", metavar="START:STOP:N")
     p.add_argument("--out", type=output_folder, default=None, help="output folder for CSV, JSON and plots")
 
 

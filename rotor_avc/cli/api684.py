@@ -15,7 +15,7 @@ from ..machine import load_machine
 from ..interactive.jsonable import jsonable
 from ..output_files import make_folder, write_text
 from ..reports.api684_plot import plot_api684
-from .common import config_frf_speeds_hz, output_folder, speed_range_hz
+from .common import add_speed_option, config_frf_speeds_hz, output_folder, speed_range_hz
 from .runup import operating_range
 
 NAME = "api684"
@@ -32,8 +32,8 @@ def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name")
     p.add_argument("--operating-hz", type=operating_range, required=True, metavar="MIN:MAX",
                    help="minimum and maximum continuous speed in Hz")
-    p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
-                   help="speed grid of the unbalance response (default: analysis.frf_speed_hz)")
+    add_speed_option(p, speed_range_hz, "speed grid of the unbalance response (default: "
+                     "analysis.frf_speed_hz)", metavar="START:STOP:N")
     p.add_argument("--responses", nargs="+", default=None, metavar="NAME",
                    help="responses (<output>_<excitation>, as in frf.csv; default: every "
                         "bearing-housing output to every excitation)")

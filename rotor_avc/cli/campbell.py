@@ -13,7 +13,8 @@ from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
 from ..reports.campbell_report import write_campbell_html
 from ..output_files import make_folder, open_text
-from .common import output_folder, speed_range_from_zero_hz
+from .common import (add_speed_option, config_frf_speeds_hz, output_folder,
+                     speed_range_from_zero_hz)
 
 NAME = "campbell"
 HELP = ("Campbell diagram: every mode's damped natural frequency and damping over rotor speed "
@@ -25,8 +26,8 @@ EXAMPLE = "rotor-avc campbell foot_mount_case3 --speed-hz 0:250:200 --out out/ca
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name")
-    p.add_argument("--speed-hz", type=speed_range_from_zero_hz, required=True,
-                   metavar="START:STOP:N", help="rotor speeds in Hz (START >= 0)")
+    add_speed_option(p, speed_range_from_zero_hz, "rotor speeds in Hz (START >= 0; default: "
+                     "the config's analysis.frf_speed_hz)", metavar="START:STOP:N")
     loops = p.add_mutually_exclusive_group()
     loops.add_argument("--closed", action="store_true",
                        help="loops closed with the config's controllers (the default where it has any)")
@@ -80,12 +81,14 @@ def selected_machine(config, closed: bool, open_: bool):
 
 
 def run(args) -> int:
+    machine = selected_machine(args.config, args.closed, args.open)
+    if args.speed_hz is None:
+        args.speed_hz = config_frf_speeds_hz(machine)
     speeds = np.asarray(args.speed_hz, dtype=float)
     if args.running_hz is not None and not speeds.min() <= args.running_hz <= speeds.max():
         raise ConfigError("--running-hz", f"{args.running_hz:g} Hz lies outside the speed grid "
                           f"{speeds.min():g} .. {speeds.max():g} Hz",
                           fix="give a speed within --speed-hz")
-    machine = selected_machine(args.config, args.closed, args.open)
     cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping, args.sampled)
     data = cd.to_json(args.orders, args.running_hz)
     if args.json:

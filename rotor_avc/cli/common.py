@@ -60,6 +60,40 @@ def speed_range_from_zero_hz(text: str) -> np.ndarray:
     return speed_range_hz(text, allow_zero=True)
 
 
+def positive_speed_list(text: str) -> list[float]:
+    """``F[,F...]`` -> speeds > 0 (Hz)."""
+    try:
+        speeds = [float(v) for v in text.split(",")]
+    except ValueError:
+        speeds = []
+    if not speeds or not all(np.isfinite(v) and v > 0 for v in speeds):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a list of speeds > 0 (e.g. 17.24 or "
+                                         "20,50, in Hz)")
+    return speeds
+
+
+def _in_rpm(parse):
+    """``parse`` (text in Hz -> Hz) for text in rpm: the same checks, the result in Hz."""
+    def parse_rpm(text: str):
+        try:
+            value = parse(text)
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentTypeError(str(exc).replace("Hz", "rpm")) from None
+        return [v / 60.0 for v in value] if isinstance(value, list) else value / 60.0
+    return parse_rpm
+
+
+def add_speed_option(p, parse, help_hz: str, *, default=None, required: bool = False,
+                     metavar: str | None = None) -> None:
+    """``--speed-hz`` or ``--speed-rpm`` (one of them; the same form, rpm = 60 Hz), both into
+    ``args.speed_hz`` in Hz: every command that takes a speed takes it in either unit."""
+    group = p.add_mutually_exclusive_group(required=required)
+    group.add_argument("--speed-hz", dest="speed_hz", type=parse, default=default,
+                       metavar=metavar, help=help_hz)
+    group.add_argument("--speed-rpm", dest="speed_hz", type=_in_rpm(parse), default=default,
+                       metavar=metavar, help="the same in rpm")
+
+
 def config_frf_speeds_hz(machine) -> np.ndarray:
     """The speed grid of a machine config's ``analysis.frf_speed_hz: {start, stop, n}``."""
     rng = machine.analysis.frf_speed_hz

@@ -18,7 +18,7 @@ from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
 from ..reports.loop_plots import plot_loop_bode, plot_loop_nyquist
 from ..output_files import make_folder
-from .common import nonnegative_float, output_folder, warn
+from .common import add_speed_option, nonnegative_float, output_folder, warn
 
 NAME = "controller"
 HELP = ("Print a foot controller's continuous G_c(s) and discrete G_d(z) coefficients, plot "
@@ -42,9 +42,9 @@ def add_arguments(p) -> None:
     p.add_argument("--foot", required=True, help="actuator id of a controlled foot (e.g. DL)")
     p.add_argument("--rate-hz", type=_positive_float, default=None,
                    help="sample rate in Hz (default: the config's control.sample_rate_hz)")
-    p.add_argument("--speed-hz", type=nonnegative_float, default=0.0,
-                   help="rotor speed of the gain-range search in Hz (default 0); damping at the "
-                        "w_F of the config's continuous pole procedure")
+    add_speed_option(p, nonnegative_float, "rotor speed of the gain-range search in Hz "
+                     "(default 0); damping at the w_F of the config's continuous pole procedure",
+                     default=0.0)
     p.add_argument("--out", type=output_folder, default=".",
                    help="folder for controller_<foot>_bode.png and every controlled foot's "
                         "loop_<foot>_bode.png, loop_<foot>_nyquist.png (default: current folder)")

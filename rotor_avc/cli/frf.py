@@ -7,7 +7,7 @@ from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
 from ..reports.frf_files import plot_frf, write_frf_csv
 from ..output_files import make_folder
-from .common import config_frf_speeds_hz, output_folder, speed_range_hz
+from .common import add_speed_option, config_frf_speeds_hz, output_folder, speed_range_hz
 
 NAME = "frf"
 HELP = ("Synchronous (unbalance) frequency responses over rotor speed of every output and "
@@ -17,8 +17,8 @@ EXAMPLE = "rotor-avc frf foot_mount_case3 --speed-hz 1:250:2000 --out out/case3"
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name")
-    p.add_argument("--speed-hz", type=speed_range_hz, default=None, metavar="START:STOP:N",
-                   help="rotational frequencies in Hz (default: the config's analysis.frf_speed_hz)")
+    add_speed_option(p, speed_range_hz, "rotational frequencies in Hz (default: the config's "
+                     "analysis.frf_speed_hz)", metavar="START:STOP:N")
     p.add_argument("--out", type=output_folder, required=True, help="output folder (created)")
     p.add_argument("--no-plots", action="store_true", help="write only frf.csv")
 

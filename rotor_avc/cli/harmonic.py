@@ -13,6 +13,7 @@ import yaml
 from ..config import config_dirs, load_config
 from ..errors import ConfigError, ModelError
 from ..output_files import make_folder, write_text
+from .common import add_speed_option, positive_speed_list
 
 NAME = "harmonic"
 HELP = ("Adaptive harmonic control on the machine: commission identifies the influence matrix "
@@ -30,7 +31,8 @@ def add_arguments(p) -> None:
     s.add_argument("scenario", help="the machine: a scenario with a `harmonic:` section")
     s.add_argument("--model", help="the controller's model config (the loop of the margin "
                                    "check; default: the scenario's machine)")
-    s.add_argument("--speed-hz", help="speeds F[,F...] (default: the scenario's constant speed)")
+    add_speed_option(s, positive_speed_list, "speeds F[,F...] in Hz (default: the scenario's "
+                     "constant speed)", metavar="F[,F...]")
     s.add_argument("--out", default="out/commission", help="folder of commissioned.yaml and "
                                                           "commission.json")
     s.add_argument("--test-force-n", type=float, help="harmonic.commission.test_force_n")
@@ -38,19 +40,6 @@ def add_arguments(p) -> None:
                    help="harmonic.commission.max_added_vibration (sensor unit)")
     s.add_argument("--min-margin-deg", type=float,
                    help="harmonic.commission.min_phase_margin_deg")
-
-
-def _speeds(text: str | None) -> list[float] | None:
-    if text is None:
-        return None
-    try:
-        speeds = [float(v) for v in text.split(",")]
-    except ValueError:
-        speeds = []
-    if not speeds or min(speeds) <= 0:
-        raise ConfigError("--speed-hz", f"{text!r} is not a list of speeds > 0",
-                          fix="e.g. --speed-hz 17.24 or --speed-hz 20,50")
-    return speeds
 
 
 def _include(source: str, out: Path, data: dict) -> str:
@@ -87,7 +76,7 @@ def run(args) -> int:
     model = load_machine(args.model) if args.model else None
     try:
         result = commission(cfg.data, cfg.source, scenario_from_config, model,
-                            _speeds(args.speed_hz), test_force_n=args.test_force_n,
+                            args.speed_hz, test_force_n=args.test_force_n,
                             max_added_vibration=args.max_added_vibration,
                             min_phase_margin_deg=args.min_margin_deg)
     except ModelError as exc:

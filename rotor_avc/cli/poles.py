@@ -6,7 +6,7 @@ import math
 
 from ..analysis.poles import machine_poles
 from ..machine import load_machine
-from .common import nonnegative_float
+from .common import add_speed_option, nonnegative_float
 
 NAME = "poles"
 HELP = ("Closed-loop poles of a machine config at one rotor speed, with the loss-factor "
@@ -17,9 +17,8 @@ EXAMPLE = "rotor-avc poles foot_mount_case3 --speed-hz 50 --json"
 
 def add_arguments(p) -> None:
     p.add_argument("config", help="machine config: a YAML path or a shipped name (foot_mount_case3)")
-    p.add_argument("--speed-hz", type=nonnegative_float, default=None,
-                   help="rotor speed f_r in Hz (default: the first of the config's "
-                        "analysis.pole_speeds_hz, else 0)")
+    add_speed_option(p, nonnegative_float, "rotor speed f_r in Hz (default: the first of the "
+                     "config's analysis.pole_speeds_hz, else 0)")
     p.add_argument("--json", action="store_true",
                    help='print {"speed_hz": F, "poles": [{"re","im","freq_hz","damping_ratio"}]} '
                         "(re/im in rad/s; one pole of each conjugate pair)")

@@ -12,7 +12,7 @@ from ..reports.robustness_files import STATS, plot_distributions, write_summary
 from ..studies.backends import backend_from_args
 from ..studies.engine import StudySpec, run_study
 from ..studies.points import Sample, parse_sample
-from .common import speed_range_hz
+from .common import add_speed_option, speed_range_hz
 
 #: the options of this mode (argparse dest -> option), refused by the other studies
 OPTIONS = {"sample": "--sample", "n": "--n", "seed": "--seed", "speed_hz": "--speed-hz",
@@ -27,8 +27,8 @@ def add_arguments(p) -> None:
                         "the base value; comma-join paths that take the same value (repeatable)")
     g.add_argument("--n", type=int, help="number of points (default 1000)")
     g.add_argument("--seed", type=int, help="study seed (default 0)")
-    g.add_argument("--speed-hz", type=speed_range_hz, metavar="START:STOP:N",
-                   help="speeds of the peak responses (default: analysis.frf_speed_hz)")
+    add_speed_option(g, speed_range_hz, "speeds of the peak responses (default: "
+                     "analysis.frf_speed_hz)", metavar="START:STOP:N")
     g.add_argument("--response", action="append", metavar="NAME",
                    help="response whose peak is recorded (repeatable; default: every bearing "
                         "response, e.g. bearing_D_vz_static)")
