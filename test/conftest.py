@@ -53,7 +53,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 #: ``cross_method``: two formulations, an independent library or a closed form agree;
 #: ``ros_integration``: ROS processes, DDS, bags of the graph, colcon and pip layouts
 KINDS = {
-    "unit": ("active_bearing_cli", "active_bearing_piezo", "bag_check", "bag_cli", "bag_errors",
+    "unit": ("active_bearing_cli", "exit_statuses", "readme_commands", "active_bearing_piezo", "bag_check", "bag_cli", "bag_errors",
              "bag_fuzz", "bag_sequence", "balancing_cli", "blocks", "cli", "compare_errors",
              "compare_reference", "compare_test_force", "config_errors", "config_fuzz", "config_schema",
              "config_keys", "control_block", "control_cli", "controller_faults",
@@ -64,8 +64,9 @@ KINDS = {
              "studies_hostile", "declared_simulation", "declared_balancer", "seams", "api684_verdict",
              "golden_outputs", "block_kinds", "demo_page", "controller_recovery",
              "design_check_speeds", "studies_resume", "studies_engine", "mutation_tool",
-             "compare_tolerances", "mapped_recordings",
-             "sequence_gaps"),
+             "compare_tolerances", "mapped_recordings", "answer_config", "report_template",
+             "compare_left_out",
+             "sequence_gaps", "mapped_windows", "campbell_edges"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
               "balancing_runup_response", "balancing_switching", "foot_mount_model",
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",
@@ -88,8 +89,10 @@ KINDS = {
     "ros_integration": ("colcon", "compare_ros", "foot_controller_input", "graph_recording",
                         "node_parameters", "node_signals", "node_transport", "nodes_messages",
                         "packaging", "plotjuggler_arrays",
-                        "recorder", "recorder_output_errors", "replay", "ros_faults",
-                        "ros_graph", "ros_lockstep", "run_command"),
+                        "recorder", "recorder_output_errors", "replay", "replay_recipe",
+                        "ros_faults",
+                        "ros_graph", "ros_lockstep", "run_command", "ros_commission",
+                        "layouts_graph"),
 }
 KIND_OF = {f"test_{name}": kind for kind, names in KINDS.items() for name in names}
 

@@ -13,6 +13,7 @@ from rotor_avc.analysis.poles import machine_poles
 from rotor_avc.bag import BagReader
 from rotor_avc.cli.demo import BEARINGS, reductions
 from rotor_avc.compare.comparison import compare_bag
+from rotor_avc.interactive.page import PLOTLY_FILE, write_page
 from rotor_avc.machine import load_machine
 from rotor_avc.reports.demo_page import write_demo_page
 
@@ -33,7 +34,7 @@ def test_overview_page_holds_every_part(tmp_path, comparison):
     poles = {"foot_mount_case3": {10.0: machine_poles(machine, 2 * math.pi * 10.0)}}
     report = tmp_path / "compare_case3" / "index.html"
     report.parent.mkdir()
-    report.write_text("<html></html>")
+    write_page(report, "case 3", [])                   # with its plotly.min.js beside it
     path = write_demo_page(tmp_path / "index.html", comps, rows, counts, poles,
                            [report, REFERENCE_BAG], BEARINGS)
     text = path.read_text()
@@ -45,8 +46,11 @@ def test_overview_page_holds_every_part(tmp_path, comparison):
     for topic, c in counts["case3"].items():
         assert re.search(rf"<td[^>]*>{re.escape(topic)}</td><td[^>]*>{c['published']}</td>"
                          rf"<td[^>]*>{c['recorded']}</td>", text)
-    hrefs = re.findall(r'<li><a href="([^"]+)"', text)
+    hrefs = re.findall(r'<li><a href="([^"#][^"]*)"', text)   # files, not the contents' anchors
     assert len(hrefs) == 2
     for href in hrefs:
         assert (tmp_path / href).resolve().exists(), href
+    # a linked report names the plotly.min.js it loads, which is there
+    (script,) = re.findall(r"\(and ([^,]+), which it loads\)", text)
+    assert script == f"compare_case3/{PLOTLY_FILE}" and (tmp_path / script).is_file()
     assert check_report(path) == len(measured)

@@ -140,14 +140,16 @@ def test_a_rosbag2_directory_with_driver_topics_redrives_a_controller(tmp_path, 
 @pytest.mark.parametrize("changed", [False, True])
 def test_replay_command_checks_a_controller(tmp_path, run, changed):
     """The command line as a user runs it (controller and replay in their own processes):
-    `--check` passes for the recorded controller and fails for one with another gain."""
+    `--check` passes for the recorded controller and fails for one with another gain (replayed
+    with --force: its configuration is not the bag's, which replay would refuse)."""
     sc, bag = run
     config = changed_gain(tmp_path, sc) if changed else sc
     ctrl = node_process("foot_controller", "-r", "__node:=fc_check_DL", "-p", f"scenario:={config}",
                         "-p", "foot_id:=DL")
     try:
         proc = subprocess.run([sys.executable, "-m", "rotor_avc", "replay", str(bag), "--fast",
-                               "--topics", DL_ACC, "--check", "1e-12", "--discovery-timeout", "30"],
+                               "--topics", DL_ACC, "--check", "1e-12", "--discovery-timeout", "30"]
+                              + (["--force"] if changed else []),
                               cwd=ROOT, capture_output=True, text=True, timeout=180)
     finally:
         log = stop(ctrl)
@@ -155,6 +157,7 @@ def test_replay_command_checks_a_controller(tmp_path, run, changed):
     assert f"{DL_ACC} -> {DL_FORCE}" in proc.stdout
     if changed:
         assert proc.returncode == 1 and f"FAIL on {DL_FORCE}" in proc.stdout, proc.stdout
+        assert "  controllers.DL.ki: bag 140000, node 150000\n" in proc.stdout
     else:
         assert proc.returncode == 0, proc.stdout + proc.stderr
         assert "1000 answers, 1000 compared" in proc.stdout
@@ -355,6 +358,7 @@ def test_a_later_replay_takes_only_its_own_answers(run):
         checks = [compare_answers(reader, plan, r)[0] for r in results]
     assert [len(r.answers[DL_FORCE]) for r in results] == [1000, 1000]
     assert checks[0].passed(1e-12) and not checks[1].passed(1e-12)
+    assert results[0].foreign == {}     # nothing but its own answers reached the first replay
 
 
 def test_read_ahead_hands_over_items_and_errors_and_stops_when_closed():

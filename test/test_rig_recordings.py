@@ -231,7 +231,7 @@ def test_the_streamed_comparison_equals_the_one_read_whole(stepped, tmp_path, ki
     """Read chunk by chunk (each channel fitted as it comes, one window kept) or whole: the same
     windows, speeds and 1x phasors, and the same stamp statistics per channel."""
     if kind == "stepped":
-        _, _, bag, config, mapping = stepped
+        speeds, _, bag, config, mapping = stepped
     else:
         ramp = {"type": "ramp", "start_hz": 6.0, "stop_hz": 30.0, "duration_s": 6.0}
         _, bag, config, mapping = _record(tmp_path / "runup", 5, {"speed": ramp})
@@ -250,3 +250,7 @@ def test_the_streamed_comparison_equals_the_one_read_whole(stepped, tmp_path, ki
     np.testing.assert_allclose([float(rate.search(n).group(1)) for n in notes[0]],
                                [float(rate.search(n).group(1)) for n in notes[1]], rtol=1e-3)
     assert streamed.verdict == whole.verdict
+    # read whole onto a grid, the interpolation's loss is stated at the highest shaft speed
+    top = max(speeds) if kind == "stepped" else 30.0
+    [loss] = re.findall(r"interpolation loss at ([\d.]+) Hz", " ".join(whole.notes))
+    assert float(loss) == pytest.approx(top, rel=0.02)

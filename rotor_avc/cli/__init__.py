@@ -32,6 +32,7 @@ COMMANDS = [
     "calibrate",                                             # a model fitted to recordings
     "config",                                                # the configuration language
     "harmonic",                                              # harmonic control commissioned
+    "layouts",                                               # Foxglove / PlotJuggler layouts
 ]
 #: command -> its module, where they differ (``config.py`` would read as the config loader)
 MODULES = {"config": "config_cmd"}

@@ -88,6 +88,7 @@ def add_speed_option(p, parse, help_hz: str, *, default=None, required: bool = F
     """``--speed-hz`` or ``--speed-rpm`` (one of them; the same form, rpm = 60 Hz), both into
     ``args.speed_hz`` in Hz: every command that takes a speed takes it in either unit."""
     group = p.add_mutually_exclusive_group(required=required)
+    metavar = metavar or "F"
     group.add_argument("--speed-hz", dest="speed_hz", type=parse, default=default,
                        metavar=metavar, help=help_hz)
     group.add_argument("--speed-rpm", dest="speed_hz", type=_in_rpm(parse), default=default,

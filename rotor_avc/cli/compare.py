@@ -7,9 +7,10 @@ from pathlib import Path
 from ..compare.checks import EXIT_NO_VERDICT
 from ..compare.comparison import compare_bag
 from ..compare.iso_zones import format_iso_table, iso20816_entries
+from ..compare.left_out import left_out_points
 from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
-from ..compare.report import ACCEPTANCE, write_report
+from ..compare.report import ACCEPTANCE, verdict_text, write_report
 from ..machine import load_machine
 from .common import output_folder
 
@@ -96,5 +97,8 @@ def report(comp, bag, out: Path) -> dict:
     for note in comp.notes:
         print(f"  note: {note}")
     why = f" ({comp.no_verdict_reason})" if comp.no_verdict_reason else ""
-    print(f"{ACCEPTANCE}\n-> {comp.verdict}{why}; report: {files['index']}")
+    left = left_out_points(comp)
+    for note in left.notes():
+        print(f"  left out: {note}")
+    print(f"{ACCEPTANCE}\n-> {verdict_text(comp, left)}{why}; report: {files['index']}")
     return files

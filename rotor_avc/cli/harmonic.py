@@ -3,16 +3,10 @@ test phasors, the margin checked, the table written as a config (rotor_avc.harmo
 """
 from __future__ import annotations
 
-import json
-import os
 import sys
-from pathlib import Path
 
-import yaml
-
-from ..config import config_dirs, load_config
+from ..config import load_config
 from ..errors import ConfigError, ModelError
-from ..output_files import make_folder, write_text
 from .common import add_speed_option, positive_speed_list
 
 NAME = "harmonic"
@@ -42,35 +36,10 @@ def add_arguments(p) -> None:
                    help="harmonic.commission.min_phase_margin_deg")
 
 
-def _include(source: str, out: Path, data: dict) -> str:
-    """The scenario as the written config includes it: its own file where a config may
-    include it from (the output folder or a shipped config), else a copy in ``out``."""
-    path = Path(source).resolve()
-    if path.is_relative_to(out.resolve()) or any(path.is_relative_to(Path(d).resolve())
-                                                  for d in config_dirs()):
-        return os.path.relpath(path, out.resolve())
-    write_text(out / "scenario.yaml", f"# {source}, merged\n" + yaml.safe_dump(data))
-    return "scenario.yaml"
-
-
-def _document(result) -> dict:
-    def cx(a):
-        return [[[float(v.real), float(v.imag)] for v in row] for row in a]
-    return {"sensors": list(result.sensors), "actuators": list(result.actuators),
-            "harmonics": list(result.harmonics), "accepted": result.refusal is None,
-            "refusal": result.refusal, "min_phase_margin_deg": result.min_phase_margin_deg,
-            "speeds": [{"speed_hz": r.speed_hz, "identified": [cx(G) for G in r.identified],
-                        "model": [cx(G) for G in r.margin.model],
-                        "test_force_n": r.levels_n.tolist(), "settling": r.settling.tolist(),
-                        "phase_margin_deg": r.margin.phase_margin_deg,
-                        "quasi_steady_limit_deg": list(r.margin.quasi_steady_deg),
-                        "exact_limit_deg": r.margin.exact_deg, "radius": r.margin.radius,
-                        "log": list(r.log)} for r in result.speeds]}
-
-
 def run(args) -> int:
     from ..harmonic.commission import commission
     from ..machine import load_machine
+    from ..reports.commission_files import write_commission
     from ..scenario import scenario_from_config
     cfg = load_config(args.scenario)
     model = load_machine(args.model) if args.model else None
@@ -81,8 +50,8 @@ def run(args) -> int:
                             min_phase_margin_deg=args.min_margin_deg)
     except ModelError as exc:
         raise ConfigError("harmonic", str(exc), source=cfg.source) from None
-    out = make_folder(Path(args.out))
-    write_text(out / "commission.json", json.dumps(_document(result), indent=1) + "\n")
+    path = write_commission(result, args.out, cfg.source, cfg.data,
+                            "rotor-avc harmonic commission")
     for r in result.speeds:
         print(f"{r.speed_hz:g} Hz: test levels {r.levels_n.round(3).tolist()} N, settling "
               f"{r.settling.max():.2g}, phase margin {r.margin.phase_margin_deg:.1f} deg "
@@ -90,15 +59,9 @@ def run(args) -> int:
               f"{r.margin.exact_deg:.1f}, radius {r.margin.radius:.4f})")
         for line in r.log:
             print(f"  {line}")
-    if result.refusal is not None:
+    if path is None:
         print(f"rotor-avc harmonic: refused: {result.refusal}", file=sys.stderr)
         return EXIT_REFUSED
-    doc = {"include": [_include(cfg.source, out, cfg.data)],
-           "harmonic": {"influence": {"phase_error_deg": 0.0, "magnitude_factor": 1.0,
-                                      "table": result.table()}}}
-    header = (f"# rotor-avc harmonic commission {Path(cfg.source).name}: the influence matrix "
-              f"identified on the machine, phase margin {result.phase_margin_deg:.1f} deg\n")
-    path = write_text(out / "commissioned.yaml", header + yaml.safe_dump(doc, sort_keys=False))
     print(f"wrote {path} (phase margin {result.phase_margin_deg:.1f} deg) and "
-          f"{out / 'commission.json'}")
+          f"{path.parent / 'commission.json'}")
     return 0

@@ -13,6 +13,14 @@ the bag says its run was not lockstep (rotor_avc.bag.lockstep: the plant stepped
 of the recorded answers, so they are no reference), said before anything is replayed. A timed
 replay that cannot hold ``--rate`` says so (a warning with the achieved rate and the late log
 times); that alone never fails the check (rotor_avc.nodes.replay).
+
+Before it publishes anything, replay reads the configuration of every node answering a replayed
+topic (its read-only ``answer_config`` parameter, rotor_avc.nodes.replay_config) and compares it
+with the bag's recorded one (rotor_avc.compare.answer_config: the sample rate, ``G_c``, the
+feedback quantity, the limits, the initial state ...): a node that differs -- or whose
+configuration cannot be read -- is refused with exit status 2, one line per field (the bag's
+value, the node's, the command that starts the node with the bag's configuration); ``--force``
+replays anyway and says which fields differed, also in the check's verdict.
 """
 from __future__ import annotations
 
@@ -23,15 +31,20 @@ from ..bag.lockstep import read_lockstep
 from ..bag.metadata import CONFIG_RECORD
 from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
+from ..compare.answer_config import BagAnswers, NodeCheck
 from ..errors import RotorAvcError
 from .common import nonnegative_float
 
 NAME = "replay"
+#: an answering node refused (README's exit statuses: input refused)
+EXIT_REFUSED = 2
 HELP = ("Publish a bag's recorded messages into the ROS graph, raw, with their recorded timing "
         "(scaled by --rate) or lockstep as fast as the graph answers (--fast); compare the "
-        "answers with the recorded ones (--check).")
-EXAMPLE = ("rotor-avc replay bags/case3.mcap --fast --topics /avc/foot/DL/acceleration "
-           "--check 1e-12   # with foot_controller DL running\n"
+        "answers with the recorded ones (--check); a node answering with another "
+        "configuration than the bag's is refused first (--force: replay anyway).")
+EXAMPLE = ("rotor-avc replay bags/reference/case3_stepped.mcap --fast --topics "
+           "/avc/foot/DL/acceleration --check 1e-12   # with `foot_controller --ros-args -p "
+           "scenario:=scenario_reference -p foot_id:=DL` running\n"
            "  rotor-avc replay recording/ --fast --topics /accel_dl/data "
            "--remap /accel_dl/data:=/avc/foot/DL/acceleration   # a ros2 bag record directory")
 
@@ -80,6 +93,9 @@ def add_arguments(p) -> None:
                         "waiting for the graph to catch up) (default 5)")
     p.add_argument("--executor", choices=("events", "single_threaded"), default="events",
                    help="rclpy executor (default events)")
+    p.add_argument("--force", action="store_true",
+                   help="replay even when an answering node runs another configuration than "
+                        "the bag's (said in the output and the check's verdict)")
 
 
 def run(args) -> int:
@@ -96,7 +112,8 @@ def run(args) -> int:
                 print(f"note: {lockstep.verdict()}")
         else:
             print("note: the bag carries no rotor_avc run configuration (a recording of another "
-                  "source): its sample sequence is not checked")
+                  "source): its sample sequence and the answering nodes' configuration are not "
+                  "checked")
         try:
             from ..nodes import replay as R          # rclpy: imported only here
             from ..nodes.replay_check import compare_answers
@@ -108,9 +125,12 @@ def run(args) -> int:
         plan = R.plan_replay(reader, args.topics, dict(args.remap), rules)
         print(f"replay {args.bag}: {len(plan.topics)} topic(s), "
               + ("lockstep (--fast)" if args.fast else f"timed x{args.rate:g}"))
+        gate = ConfigGate(reader, args.bag, args.force)
         result = R.replay_bag(reader, plan, executor_kind=args.executor, fast=args.fast,
                               rate=args.rate, discovery_timeout_s=args.discovery_timeout,
-                              answer_timeout_s=args.answer_timeout)
+                              answer_timeout_s=args.answer_timeout, gate=gate)
+        if result is None:
+            return EXIT_REFUSED
         sent = sum(result.published.values())
         print(f"published {sent} messages at {result.samples} log times in {result.wall_s:.2f} s"
               f" ({result.samples / max(result.wall_s, 1e-9):.0f} log times/s)")
@@ -120,6 +140,9 @@ def run(args) -> int:
             print(f"  {trigger} -> {answer}")
         for trigger in result.unanswered:
             print(f"  {trigger}: no node publishes {plan.answers[trigger].topic}; not awaited")
+        for topic, n in result.foreign.items():
+            print(f"  {topic}: {n} answer(s) to stamps this replay had not sent (another "
+                  "publisher's), ignored")
         checks = compare_answers(reader, plan, result)
     for c in checks:
         print(f"{c.topic}: {c.answers} answers, {c.compared} compared with {c.recorded_topic}: "
@@ -133,5 +156,44 @@ def run(args) -> int:
         return 1
     failed = [c.topic for c in checks if not c.passed(args.check)]
     print(f"check (tolerance {args.check:g}): " + (f"FAIL on {', '.join(failed)}" if failed
-                                                     else "every answer equals the recording"))
+                                                     else "every answer equals the recording")
+          + gate.forced_note())
     return 1 if failed else 0
+
+
+class ConfigGate:
+    """Replay's gate (rotor_avc.nodes.replay.Replayer.run): every answering node's
+    configuration against the bag's, said line by line; False (refused) when one differs,
+    unless ``force``."""
+
+    def __init__(self, reader, path: Path, force: bool):
+        self.bag = BagAnswers(reader.config, path) if CONFIG_RECORD in reader.metadata else None
+        self.force = force
+        self.differing: list[NodeCheck] = []
+
+    def __call__(self, nodes) -> bool:
+        if self.bag is None:
+            return True
+        checks = [self.bag.check(n.name, n.answer_topic, n.text, n.unread) for n in nodes]
+        for c in checks:
+            if not c.differences:
+                print(f"configuration: {c.node} (answering {c.answer_topic}) runs the bag's")
+                continue
+            head = "warning (--force)" if self.force else "refused"
+            print(f"{head}: {c.node} answers {c.answer_topic} with another configuration than "
+                  "the bag's" + ("; replayed anyway:" if self.force else
+                                 ", so its answers would differ from the recorded ones; "
+                                 "nothing was published:"))
+            for d in c.differences:
+                print(f"  {d.line()}" + ("" if self.force else
+                                         f" -- fix: {c.command}, or --force"))
+        self.differing = [c for c in checks if c.differences]
+        return self.force or not self.differing
+
+    def forced_note(self) -> str:
+        """The verdict's note of a forced replay: which node differed in which fields."""
+        if not self.differing:
+            return ""
+        return (" (replayed with --force: the configuration differed from the bag's in "
+                + "; ".join(f"{c.node}: " + ", ".join(d.field for d in c.differences)
+                            for c in self.differing) + ")")

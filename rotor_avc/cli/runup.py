@@ -16,6 +16,7 @@ from ..errors import ConfigError
 from ..compare.runup_views import (api684_tables, channel_unit, housing_channels, one_x_track,
                                     orbit_pairs, orbits, run_waterfall)
 from ..interactive.jsonable import jsonable
+from ..interactive.page import page_files
 from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
 from ..reports.runup_report import api_rows, write_runup_html
 from ..output_files import make_folder, write_text
@@ -70,8 +71,9 @@ def add_arguments(p) -> None:
     p.add_argument("--operating-hz", type=operating_range, default=None, metavar="MIN:MAX",
                    help="operating speed range for the API 684 separation margins (default: the "
                         "speed the run ends at)")
-    p.add_argument("--speed-unit", choices=("hz", "rpm"), default="rpm",
-                   help="speed axis of the PNGs and the report's initial choice")
+    p.add_argument("--speed-unit", choices=("hz", "rpm"), default="hz",
+                   help="speed axis of the PNGs and the report's initial choice (default Hz, as "
+                        "every report)")
 
 
 def run(args) -> int:
@@ -113,11 +115,10 @@ def run(args) -> int:
                ("speed range", f"{track.speed_hz.min():.4g} .. {top_hz:.4g} Hz"),
                ("sample rate", f"{1 / run_.sample_period_s:g} Hz"),
                ("damping", run_.scenario.damping.describe()),
-               ("1x order tracking", track.method)] + [("note", n)
-                                                       for n in run_.notes + iso_notes]
-    report = write_runup_html(args.out / "index.html", f"{name}: run-up", summary, wf,
-                              channel_unit(run_, wf_channel), track, orbs, tables, operating, unit,
-                              iso)
+               ("1x order tracking", track.method)]
+    report = write_runup_html(args.out / "index.html", f"{name}: run-up", summary,
+                              run_.notes + iso_notes, verdict, wf, channel_unit(run_, wf_channel),
+                              track, orbs, tables, operating, unit, iso)
     for c, both in tables.items():
         for kind, checks in both.items():
             print(f"API 684, {c} ({kind}):")
@@ -127,7 +128,8 @@ def run(args) -> int:
         print(f"  note: {note}")
     if not orbit_pairs(run_, channels):
         print("no orbit: the channels hold no point with two transverse outputs of one kind")
-    for path in written + [args.out / "api684.json", args.out / "metrics.json", report]:
+    for path in written + [args.out / "api684.json", args.out / "metrics.json",
+                           *page_files(report)]:
         print(f"wrote {path}")
     print(f"-> {verdict_line(verdict)}")
     return 1 if verdict["failed"] else 0

@@ -5,8 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..interactive.page import Figure
+from ..interactive.plot_data import sequential_colours
+from ..interactive.symlog import symlog, symlog_axis
 
 MODEL_DASH = {"sampled": "solid", "continuous": "dash"}
+#: the pole map's symmetric-log axis is linear within about this real part [1/s]
+POLE_X0 = 1.0
 
 
 def one_x_figures(comp) -> list[Figure]:
@@ -56,15 +60,26 @@ def broadband_figures(comp) -> list[Figure]:
 
 
 def poles_figure(comp) -> list[Figure]:
+    """The closed-loop poles at the run's speeds (continuous x, sampled-loop o), the real parts
+    on a symmetric-log axis (:mod:`rotor_avc.interactive.symlog`, x0 = :data:`POLE_X0`) so that
+    lightly damped structural modes and fast controller poles both show; hover: the true s."""
     if not comp.poles:
         return []
     nyquist = 0.5 / comp.run.sample_period_s
-    traces = []
-    for p in comp.poles:
+    colours = sequential_colours(len(comp.poles))
+    traces, reals = [], []
+    for p, colour in zip(comp.poles, colours):
         for m, symbol in (("continuous", "x"), ("sampled", "circle-open")):
             s = p[m]
             s = s[(s.imag >= 0) & (s.imag / (2 * np.pi) <= nyquist)]
+            reals.append(s.real)
             traces.append({"type": "scatter", "mode": "markers", "name": f"{m} at {p['speed_hz']:.2f} Hz",
-                           "x": s.real, "y": s.imag / (2 * np.pi), "marker": {"symbol": symbol, "size": 8}})
-    return [Figure("poles", "closed-loop poles with the run's damping", traces,
-                   x_title="Re s [1/s]", y_title="Im s / 2 pi [Hz]", speed_axis=None)]
+                           "x": symlog(s.real, POLE_X0), "y": s.imag / (2 * np.pi),
+                           "customdata": s.real, "marker": {"symbol": symbol, "size": 8,
+                                                            "color": colour},
+                           "hovertemplate": "Re s %{customdata:.5g} 1/s<br>Im s / 2 pi %{y:.5g} Hz"
+                                            f"<extra>{m} at {p['speed_hz']:.2f} Hz</extra>"})
+    axis = symlog_axis(np.concatenate(reals), POLE_X0, "Re s [1/s]")
+    return [Figure("poles", "closed-loop poles with the run's damping (x continuous, o sampled "
+                   "loop)", traces, x_title=axis["title"]["text"], y_title="Im s / 2 pi [Hz]",
+                   speed_axis=None, layout={"xaxis": axis}, height_px=460)]

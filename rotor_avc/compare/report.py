@@ -1,5 +1,5 @@
-"""The report of ``rotor-avc compare``: ``index.html`` (self-contained), PNG plots, ``frf.csv`` and
-``metrics.json`` in one folder (DESIGN.md section 5).
+"""The report of ``rotor-avc compare``: ``index.html`` (with ``plotly.min.js`` beside it), PNG
+plots, ``frf.csv`` and ``metrics.json`` in one folder (DESIGN.md section 5).
 
 * ``metrics.json``: ``"pass"`` (true when every check against the sampled-loop model passed), the
   acceptance it tests, the run (bag, machine, sample rate, damping rule, unbalance), ``checks``
@@ -8,7 +8,9 @@
   the resonances, the broadband estimates with their settings, pole summaries, notes and
   ``iso20816``: the ISO 20816-3 zone of each bearing-housing channel
   (:mod:`rotor_avc.compare.iso_zones`: ``channel``, ``rms_mm_s``, ``zone``, ``group``,
-  ``support``, ``band_hz``, ``quantity``, ``windows``);
+  ``support``, ``band_hz``, ``quantity``, ``windows``) and ``left_out``: the 1x points and
+  broadband bins there are and those left out of the checks, counted by reason
+  (:mod:`rotor_avc.compare.left_out`);
 * ``frf.csv``: one row per channel and speed (``kind = 1x``) or frequency (``kind = broadband``):
   measured (H1 for broadband, with H2 and coherence), sampled-loop and continuous model, each as
   magnitude (SI unit per unit unbalance or per N) and phase in degrees, and the error in dB of
@@ -20,8 +22,10 @@
 * ``one_x_<kind>.png`` (magnitude in dB and phase over the rotational frequency: measured points,
   sampled-loop model solid, continuous dashed), ``broadband_<speed>.png`` (H1, H2, both models,
   coherence) and ``poles.png`` (continuous and sampled-loop poles at the run's speeds);
-* ``index.html``: the verdict, the checks, the settings and interactive plots of the same data
-  (:mod:`rotor_avc.interactive.page`: self-contained, zoom, pan, values on hover).
+* ``index.html``: the verdict (with the points left out counted), the checks, the settings and
+  interactive plots of the same data (:mod:`rotor_avc.interactive.page`: contents, zoom, pan,
+  values on hover; the pole map's real parts on a symmetric-log axis), the points left out
+  listed by reason in the notes.
 """
 from __future__ import annotations
 
@@ -33,12 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .checks import (MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
+from .checks import (HARMONIC, MIN_COHERENCE, TOL_AT_RESONANCE_DB, TOL_OFF_RESONANCE_DB,
                      TOL_PHASE_AT_RESONANCE_DEG, TOL_PHASE_OFF_RESONANCE_DEG, TOL_RESONANCE_PCT)
 from .comparison import Comparison
 from ..analysis.frf_estimate import h1_random_error
 from .figures import broadband_figures, one_x_figures, poles_figure
-from ..interactive.page import page as interactive_page
+from .left_out import LeftOut, left_out_points
+from ..interactive.page import key_value_table, page_files, write_page
 from ..interactive.jsonable import jsonable as _clean
 from ..output_files import make_folder, open_text, save_figure, write_text
 
@@ -76,6 +81,11 @@ def metrics(comp: Comparison, iso20816=()) -> dict:
            "checks": [c.as_dict() for c in comp.checks],
            "reference_model_metrics": [c.as_dict() for c in comp.reference_metrics],
            "notes": comp.notes, "iso20816": list(iso20816)}
+    left = left_out_points(comp)
+    out["left_out"] = {"points": left.points, "bins": left.bins,
+                       "points_left_out": {r: len(v) for r, v in left.points_left_out.items()},
+                       "bins_left_out": {r: sum(n for _, n in v)
+                                         for r, v in left.bins_left_out.items()}}
     one = comp.one_x
     if one is not None:
         out["one_x"] = {
@@ -294,46 +304,78 @@ def iso_heading(entries) -> str:
             "rotor_avc.compare.iso_zones); a value on a boundary lies in the lower zone.</p>")
 
 
+def verdict_text(comp: Comparison, left: LeftOut) -> str:
+    """The verdict with the points left out counted: ``PASS, 64 of 126 1x points left out (...)``."""
+    summary = left.summary()
+    return comp.verdict + (f", {summary}" if summary else "")
+
+
+def _resonances(data: dict) -> str:
+    """The resonances of the models against the measured ones (those not resolved with the
+    reason), or why there are none."""
+    one = data.get("one_x")
+    if one is None:
+        return "<p>No 1x response in this run (see the notes), so no resonance to compare.</p>"
+    rows = one["resonances"]
+    if not rows:
+        lo, hi = min(one["speeds_hz"]), max(one["speeds_hz"])
+        why = ("the harmonic controller's forces drive the models, whose curves over speed are "
+               "the feedback loop alone" if any(ch.startswith(HARMONIC) for ch in one["channels"])
+               else f"no resonance peak of the models lies within the measured speeds "
+                    f"({lo:.4g} .. {hi:.4g} Hz) on a channel that is compared")
+        return f"<p>No resonance compared: {html.escape(why)}.</p>"
+    body = [[r["model"], r["channel"], f"{r['model_hz']:.4f}",
+             f"{r['measured_hz']:.4f}" if "measured_hz" in r else "-",
+             f"{r['freq_error_pct']:.3f}" if "measured_hz" in r else "-",
+             f"{r['level_error_db']:.3f}" if "measured_hz" in r else "-",
+             r.get("not_resolved", "")] for r in rows]
+    return _table(body, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
+                         "peak error [dB]", "not resolved because"])
+
+
+def _settings(data: dict) -> str:
+    """The 1x order tracking and broadband estimation settings as key/value tables."""
+    out = []
+    if "one_x" in data:
+        one = data["one_x"]
+        out += [f"<h3>1x: {html.escape(one['method'])}</h3>",
+                key_value_table({"normalisation": one["reference"], **one["settings"]})]
+    for bb in data["broadband"]:
+        out += [f"<h3>Broadband at {bb['speed_hz']:.3f} Hz</h3>", key_value_table({
+            "estimator": bb["estimator"], "input": f"{bb['input']} ({bb['input_source']})",
+            "test signal": bb["test_signal"], "min coherence": bb["min_coherence"],
+            "damping model": bb["damping_model"], **bb["settings"]})]
+    return "".join(out)
+
+
 def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Path:
-    verdict = comp.verdict
+    left = left_out_points(comp)
+    verdict = verdict_text(comp, left)
     checks = _table([[{True: "pass", False: "FAIL", None: "-"}[c.passed], c.name, _fmt(c.value),
                       f"{c.tolerance:g} {c.unit}", c.detail] for c in comp.checks],
                     ["verdict", "check (sampled-loop model)", "value", "tolerance", "detail"])
     ref = _table([[c.name, _fmt(c.value), c.unit, c.detail] for c in comp.reference_metrics],
                  ["metric (continuous model, no verdict)", "value", "unit", "detail"])
-    info = [["bag", data["bag"]], ["machine", data["machine"]],
-            ["sample rate", f"{data['sample_rate_hz']:g} Hz"], ["damping", data["damping"]],
-            ["initial state", data["initial_state"]]]
-    if "one_x" in data:
-        info += [["1x method", data["one_x"]["method"]],
-                 ["1x settings", json.dumps(data["one_x"]["settings"])],
-                 ["1x normalisation", data["one_x"]["reference"]]]
-    for bb in data["broadband"]:
-        info += [[f"broadband at {bb['speed_hz']:.3f} Hz",
-                  f"{bb['estimator']}; {json.dumps(bb['settings'])}; coherence >= "
-                  f"{bb['min_coherence']}; {bb['damping_model']}; input {bb['input']} "
-                  f"({bb['input_source']})"]]
-    res = [r for r in data.get("one_x", {}).get("resonances", []) if "measured_hz" in r]
-    res_rows = [[r["model"], r["channel"], f"{r['model_hz']:.4f}", f"{r['measured_hz']:.4f}",
-                 f"{r['freq_error_pct']:.3f}", f"{r['level_error_db']:.3f}"] for r in res]
+    info = {"bag": data["bag"], "machine": data["machine"],
+            "sample rate": f"{data['sample_rate_hz']:g} Hz", "damping": data["damping"],
+            "initial state": data["initial_state"]}
     poles = _table([[f"{q['speed_hz']:.3f}", f"{q['w_F_rad_s']:.4g}",
                      f"{q['continuous_max_real_s']:.4g}", f"{q['sampled_max_abs_z']:.6f}",
                      "yes" if q["sampled_stable"] else "NO"] for q in data["poles"]],
                    ["speed [Hz]", "w_F [rad/s]", "continuous max Re s [1/s]",
                     "sampled max |z|", "sampled loop stable"])
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in comp.notes)
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in left.notes() + comp.notes)
     files = ", ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.name)}</a>'
                       for p in pngs)
     css_verdict = "pass" if comp.passed else "fail"
-    blocks = [f'<p class="{css_verdict}" style="font-size:20px">{verdict}</p>'
-              f"<p>{html.escape(ACCEPTANCE)} This run: <b>{verdict}</b>"
+    blocks = [f'<p class="{css_verdict}" style="font-size:20px">{html.escape(verdict)}</p>'
+              f"<p>{html.escape(ACCEPTANCE)} This run: <b>{comp.verdict}</b>"
+              f"{html.escape(verdict[len(comp.verdict):])}"
               f"{html.escape(' -- ' + comp.no_verdict_reason) if comp.no_verdict_reason else ''}"
-              ".</p>", checks,
+              ".</p>", "<h2>Checks</h2>", checks,
               "<h2>Continuous model (the papers' FRFs), for reference</h2>", ref,
-              "<h2>Run</h2>", _table(info, ["item", "value"]),
-              "<h2>Resonances (measured vs model)</h2>",
-              _table(res_rows, ["model", "channel", "model [Hz]", "measured [Hz]", "error [%]",
-                                "peak error [dB]"]),
+              "<h2>Run</h2>", key_value_table(info), _settings(data),
+              "<h2>Resonances (measured vs model)</h2>", _resonances(data),
               "<h2>Poles with the run's damping</h2>", poles, *poles_figure(comp),
               iso_heading(data["iso20816"]), iso_table(data["iso20816"]),
               f"<h2>Notes</h2><ul>{notes or '<li>none</li>'}</ul>"]
@@ -342,9 +384,8 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
     if comp.broadband:
         blocks += ["<h2>Broadband FRFs</h2>", *broadband_figures(comp)]
     blocks.append(f"<p>Files next to this page: frf.csv, metrics.json and the PNGs ({files}).</p>")
-    write_text(path, interactive_page(f"Comparison of a recorded run with the models: "
-                                      f"{data['bag']}", blocks))
-    return path
+    return write_page(path, f"Comparison of a recorded run with the models: {data['bag']}",
+                      blocks)
 
 
 def write_report(comp: Comparison, out_dir, iso20816=()) -> dict[str, Path]:
@@ -358,4 +399,5 @@ def write_report(comp: Comparison, out_dir, iso20816=()) -> dict[str, Path]:
     pngs = ((plot_one_x(comp, out_dir) if comp.one_x else []) + plot_broadband(comp, out_dir)
             + plot_poles(comp, out_dir))
     page = write_html(comp, data, pngs, out_dir / "index.html")
-    return {"index": page, "metrics": out_dir / "metrics.json", "csv": csv_path, "plots": pngs}
+    return {"index": page, "plotly": page_files(page)[1], "metrics": out_dir / "metrics.json",
+            "csv": csv_path, "plots": pngs}

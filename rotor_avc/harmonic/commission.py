@@ -17,15 +17,9 @@ level is halved and faded in again, at most ``max_retries`` times, else the test
 reason. ``settling`` is how far the measured column still moves: the difference of its means
 over the two halves of the measured revolutions, relative to it.
 
-Margin (:func:`phase_margin`): per speed and harmonic, the largest phase error of the written
-table that the adaptation tolerates -- the smaller of the quasi-steady limit with the identified
-matrix as the machine (:func:`rotor_avc.harmonic.lti.robustness_map`; ``acos(mu / 2)`` for the
-Newton law on an exact table) and the limit of the exact one-revolution map
-(:func:`rotor_avc.harmonic.lti.harmonic_poles`) on the controller's model loop. The model only
-supplies the loop's dynamics there: with the table exact for the machine, a model whose
-influence is ``G_m`` stands for it through the input transform ``K = pinv(G_m) G_id`` (for the
-Newton law and ``G_id`` of full row rank, ``K pinv(G_id) = pinv(G_m)``: the map equals the
-model loop's with its own influence as the estimate), rotated by the phase error.
+The margin before adapting: :mod:`.commission_margin`. :class:`Plan` is what a scenario's
+commissioning needs, validated once; :func:`commission` runs it in-process at each speed,
+:class:`.commission_block.CommissioningBlock` on live signals (the ROS node).
 """
 from __future__ import annotations
 
@@ -36,28 +30,26 @@ import numpy as np
 
 from ..analysis.order_tracking import fit
 from ..errors import ModelError
+from .commission_margin import Margin, phase_margin
 from .influence import model_schedule
-from .lti import harmonic_poles, robustness_map, samples_per_revolution
 
 TWO_PI = 2 * math.pi
-#: phase errors of the quasi-steady limit (deg) and bisection steps of the exact one
-PHASES_DEG = np.arange(-180.0, 180.5, 0.5)
-BISECTIONS = 8
 
 
 class TestSequence:
     """The test phasors as a block of the loop (module docstring): ``reset()``,
     ``step(signals, angle, speed) -> forces``; ``finished`` once measured (or stopped:
-    ``failure``), its results in :attr:`responses` (H, M, N) and :attr:`levels_n` (H, N)."""
+    ``failure``), ``idle`` once the last test phasor has faded out too; its results in
+    :attr:`responses` (H, M, N) and :attr:`levels_n` (H, N); per revolution :attr:`E` (H, M)
+    and :attr:`revolutions`, :meth:`progress` the step it is at."""
 
     def __init__(self, sensors, actuators, harmonics, sample_period_s: float, test_force_n: float,
-                 settings, max_added=None, name: str = "commission"):
+                 settings, name: str = "commission"):
         self.sensors, self.actuator_ids = tuple(sensors), tuple(actuators)
         self.harmonics = tuple(int(h) for h in harmonics)
         self.sample_period_s = float(sample_period_s)
         self.test_force_n = float(test_force_n)
         self.settings = settings
-        self.max_added = max_added
         self.name = name
         self._h = np.array(self.harmonics, dtype=float)[:, None]
         self._stages = [None] + [(hi, j) for hi in range(len(self.harmonics))
@@ -77,6 +69,9 @@ class TestSequence:
         self._from = np.zeros((H, N), complex)
         self._applied = np.zeros((H, N), complex)
         self._ramp_start = self._rev_start = self._now = None
+        self._x = 0.0
+        self.E = np.zeros((H, M), complex)
+        self.revolutions = 0
         self._angles: list[float] = []
         self._values: list = []
         self._measured: list[np.ndarray] = []
@@ -93,6 +88,42 @@ class TestSequence:
         return (f"{self.name}: test phasors of {self.test_force_n:g} N, one of "
                 f"{len(self.actuator_ids)} actuators at a time, harmonics {list(self.harmonics)}")
 
+    @property
+    def steps(self) -> int:
+        """Steps of the sequence: the baseline and one test per harmonic and actuator."""
+        return len(self._stages)
+
+    @property
+    def phasors(self) -> np.ndarray:
+        """The test phasors applied at the last sample (H, N), N peak."""
+        return self._applied
+
+    @property
+    def idle(self) -> bool:
+        """Finished, and the last test phasor faded out (the forces are zero from now on)."""
+        return self.finished and self._x >= 1.0
+
+    def progress(self) -> str:
+        """``step i of n: <baseline | actuator at hx, level>, <phase> r/R revolutions``, or
+        how the sequence ended."""
+        if self.finished:
+            return f"stopped: {self.failure}" if self.failure else "every test measured"
+        s = self.settings
+        total = {"ramp": s.ramp_revolutions, "settle": s.settle_revolutions,
+                 "measure": s.measure_revolutions}[self.phase]
+        current = self._stages[self.stage]
+        what = "baseline" if current is None else (
+            f"{self.actuator_ids[current[1]]} at {self.harmonics[current[0]]}x, "
+            f"{self.levels_n[current]:.3g} N")
+        return (f"step {self.stage + 1} of {self.steps}: {what}, {self.phase} "
+                f"{self.revs}/{total} revolutions")
+
+    def stop(self, failure: str) -> None:
+        """End the sequence with ``failure``, fading the running test phasor out."""
+        self.failure = failure
+        self.finished = True
+        self._fade_to(np.zeros_like(self.target))
+
     def step(self, signals, angle: float, speed: float) -> list[float]:
         """Sensor signals at ``t_k``, shaft angle (rad), speed (rad/s) -> forces (N)."""
         self._now = angle
@@ -103,13 +134,15 @@ class TestSequence:
             self._rev_start = angle
         self._angles.append(angle)
         self._values.append(list(signals))
-        x = min((angle - self._ramp_start) / (TWO_PI * self.settings.ramp_revolutions), 1.0)
+        x = self._x = min((angle - self._ramp_start) / (TWO_PI * self.settings.ramp_revolutions),
+                          1.0)
         self._applied = self._from + (self.target - self._from) * 0.5 * (1 - math.cos(math.pi * x))
         return (self._applied * np.exp(1j * self._h * angle)).real.sum(axis=0).tolist()
 
     def _fade_to(self, target: np.ndarray) -> None:
         self._from, self.target = self._applied.copy(), target
         self._ramp_start = self._now
+        self._x = 0.0
         self.phase, self.revs = "ramp", 0
 
     def _revolution(self) -> None:
@@ -119,7 +152,8 @@ class TestSequence:
         self._angles, self._values = [], []
         if self.finished:
             return
-        E = np.array([fit(h * theta, y)[0] for h in self.harmonics])        # (H, M)
+        E = self.E = np.array([fit(h * theta, y)[0] for h in self.harmonics])   # (H, M)
+        self.revolutions += 1
         current = self._stages[self.stage]
         if current is not None and self._too_much(E, current):
             return
@@ -146,10 +180,8 @@ class TestSequence:
                 f"rose {rise[i]:.3g} above its {np.abs(self.baseline[:, i]).max():.3g} before "
                 f"the test, more than {self.limit[i]:.3g} (max_added_vibration)")
         if self.retries[hi, j] >= self.settings.max_retries:
-            self.failure = f"{what} at {self.levels_n[hi, j]:.3g} N after " \
-                           f"{self.retries[hi, j]} halvings"
-            self.finished = True
-            self._fade_to(np.zeros_like(self.target))
+            self.stop(f"{what} at {self.levels_n[hi, j]:.3g} N after {self.retries[hi, j]} "
+                      "halvings")
             return True
         self.retries[hi, j] += 1
         self.levels_n[hi, j] /= 2
@@ -208,66 +240,6 @@ def run_test(scenario, sequence: TestSequence) -> TestSequence:
     if not sequence.finished:
         raise ModelError("the test sequence did not finish within its planned length")
     return sequence
-
-
-@dataclass(frozen=True)
-class Margin:
-    """Phase margins (deg) per harmonic: quasi-steady with the identified matrix, of the exact
-    one-revolution map (and its spectral radius with the table exact), at ``speed_rad_s``."""
-
-    speed_rad_s: float
-    quasi_steady_deg: tuple[float, ...]
-    exact_deg: float
-    radius: float
-    model: np.ndarray                   # (H, M, N): the model's influence at that speed
-
-    @property
-    def phase_margin_deg(self) -> float:
-        return float(min(min(self.quasi_steady_deg), self.exact_deg))
-
-
-def phase_margin(loop, speed_rad_s: float, w_F: float | None, actuators, sensors, harmonics,
-                 identified: np.ndarray, law: str, gain: float, *, effort_weight: float = 0.0,
-                 leakage: float = 0.0, sensor_weights=None) -> Margin:
-    """:class:`Margin` at the speed moved to a whole number of samples per revolution (the map
-    needs it; module docstring); ``loop`` the controller's model loop."""
-    T = loop.sample_period_s
-    w = TWO_PI / (max(int(round(TWO_PI / (speed_rad_s * T))), 3) * T)
-    samples_per_revolution(w, T)
-    wf = w if w_F is None else w_F
-    qs = []
-    for G in identified:
-        if np.linalg.matrix_rank(G) < min(G.shape):
-            qs.append(0.0)
-            continue
-        limit = robustness_map(G, law, PHASES_DEG, [1.0], [gain], effort_weight=effort_weight,
-                               leakage=leakage).phase_limit_deg()[0, 0]
-        qs.append(0.0 if np.isnan(limit) else float(limit))
-    model = model_schedule(loop, sensors, actuators, harmonics, [w], wf).matrices[0]
-    lwi = loop.with_inputs(w, wf, actuators, sensors)
-
-    def radius(phase_deg: float) -> float:
-        est = model * np.exp(1j * np.deg2rad(phase_deg))
-        return harmonic_poles(loop, w, wf, actuators, sensors, harmonics, est, law, gain,
-                              effort_weight=effort_weight, leakage=leakage,
-                              sensor_weights=sensor_weights, lwi=lwi).max_abs_z
-
-    r0 = radius(0.0)
-    exact = 0.0 if r0 >= 1.0 else min(_stable_phase(radius, sign, max(qs))
-                                      for sign in (1.0, -1.0))
-    return Margin(w, tuple(qs), exact, r0, model)
-
-
-def _stable_phase(radius, sign: float, top: float) -> float:
-    """The largest phase error in ``[0, top]`` (one sign) up to which ``radius < 1`` (bisection
-    from a stable zero)."""
-    if top <= 0 or radius(sign * top) < 1.0:
-        return top
-    lo, hi = 0.0, top
-    for _ in range(BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if radius(sign * mid) < 1.0 else (lo, mid)
-    return lo
 
 
 def check_test_level(sec, level_n: float, harmonics, speeds_rad_s, force_limit_n,
@@ -349,63 +321,121 @@ class Commissioning:
             r.speed_hz, self.harmonics, self.sensors, self.actuators, r.identified)]
 
 
-def commission(data: dict, source: str, make_scenario, model_machine=None, speeds_hz=None,
-               **overrides) -> Commissioning:
-    """Commission the ``harmonic:`` section of the scenario ``data`` (a merged config) on its
-    machine: the test at each of ``speeds_hz`` (default: the scenario's constant speed), the
-    margin on ``model_machine``'s loop (default: the scenario's machine); ``overrides``:
-    ``harmonic.commission`` keys given on the command line. ``make_scenario(data, source)``
-    builds a :class:`rotor_avc.scenario.Scenario`."""
-    import copy
+@dataclass(frozen=True)
+class Plan:
+    """What commissioning a scenario's ``harmonic:`` section needs, validated once
+    (:func:`plan`): its settings, the test settings with the overrides, sensors, actuators and
+    harmonics, the controller's model loop of the margin and the feedback limits of the
+    actuators. :func:`commission` drives it in-process, :class:`.commission_block.
+    CommissioningBlock` on live signals: one procedure."""
+
+    section: object                     # the `harmonic:` Section (errors name its keys)
+    settings: object                    # HarmonicControlSettings
+    commission: object                  # CommissionSettings, with the overrides
+    sensors: tuple[str, ...]
+    actuators: tuple[str, ...]
+    harmonics: tuple[int, ...]
+    loop: object                        # the model's SampledLoop
+    w_F: float | None
+    sample_period_s: float
+    actuator_limits: dict
+
+    def check_level(self, speeds_hz) -> None:
+        """ConfigError when a test phasor would exceed a limit at one of ``speeds_hz``
+        (:func:`check_test_level`), before any is applied."""
+        s = self.settings
+        check_test_level(self.section, self.commission.test_force_n, self.harmonics,
+                         [TWO_PI * f for f in speeds_hz], s.force_limit_n, s.rate_limit_n_per_s,
+                         self.actuator_limits)
+
+    def sequence(self) -> TestSequence:
+        return TestSequence(self.sensors, self.actuators, self.harmonics, self.sample_period_s,
+                            self.commission.test_force_n, self.commission)
+
+    def speed_result(self, speed_hz: float, seq: TestSequence) -> SpeedCommission:
+        """A finished test's result at ``speed_hz``: its matrices and the margin of the
+        adaptation with them (``gain: auto``: the gain the loop analysis gives there)."""
+        from .config import AUTO_GAINS
+        s, w = self.settings, TWO_PI * speed_hz
+        gain = s.gain
+        if gain == "auto":
+            from .lti import gain_schedule
+            sched = model_schedule(self.loop, self.sensors, self.actuators, self.harmonics, [w],
+                                   self.w_F)
+            gain = gain_schedule(self.loop, sched, s, [w], AUTO_GAINS, self.w_F)[1][0]
+        margin = phase_margin(self.loop, w, self.w_F, self.actuators, self.sensors,
+                              self.harmonics, seq.responses, s.law, gain,
+                              effort_weight=s.effort_weight, leakage=s.leakage,
+                              sensor_weights=s.sensor_weights)
+        return SpeedCommission(speed_hz, seq.responses, seq.levels_n, seq.settling, margin,
+                               tuple(seq.log))
+
+    def result(self, speeds, failure: str | None = None) -> Commissioning:
+        return Commissioning(self.sensors, self.actuators, self.harmonics, tuple(speeds),
+                             self.commission.min_phase_margin_deg, failure)
+
+
+def plan(scenario, model_machine=None, **overrides) -> Plan:
+    """The :class:`Plan` of the scenario's ``harmonic:`` section; the margin on
+    ``model_machine``'s loop (default: the scenario's machine); ``overrides``:
+    ``harmonic.commission`` keys given on the command line (None: the config's)."""
     from dataclasses import replace
     from ..analysis.sampled_loop import machine_sampled_loop
-    from .config import AUTO_GAINS, harmonic_actuators, harmonic_section, harmonic_sensors
-    scenario = make_scenario(data, source)
+    from .config import harmonic_actuators, harmonic_section, harmonic_sensors
     machine = scenario.machine
     cfg = machine.config
     if not cfg.has("harmonic"):
         raise cfg.error("harmonic", "missing: commissioning identifies the influence matrix of "
                         "the `harmonic:` section", fix="include a harmonic config (e.g. "
                         "harmonic_bearings.yaml)")
-    sec = cfg.section("harmonic")
     s = harmonic_section(cfg)
-    cs = replace(s.commission, **{k: v for k, v in overrides.items() if v is not None})
-    actuators, sensors = harmonic_actuators(machine), harmonic_sensors(machine)
-    harmonics = tuple(int(h) for h in sorted(s.harmonics))
-    if speeds_hz is None:
-        speed = data.get("simulation", {}).get("speed", {})
-        if speed.get("type") != "constant":
-            raise cfg.section("simulation").error("speed", "commissioning tests at constant "
-                                                  "speeds; this profile is not constant",
-                                                  fix="give the speeds (--speed-hz F[,F...])")
-        speeds_hz = [float(speed["speed_hz"])]
+    actuators = tuple(harmonic_actuators(machine))
     limits = {a: (machine.controller_settings[a].force_limit_n,
                   machine.controller_settings[a].rate_limit_n_per_s)
               for a in actuators if a in machine.controller_settings}
-    check_test_level(sec, cs.test_force_n, harmonics, [TWO_PI * f for f in speeds_hz],
-                     s.force_limit_n, s.rate_limit_n_per_s, limits)
     T = scenario.sample_period_s
-    loop = machine_sampled_loop(model_machine or machine, T)
-    w_F = scenario.damping.whirl_rad_s
+    return Plan(cfg.section("harmonic"), s,
+                replace(s.commission, **{k: v for k, v in overrides.items() if v is not None}),
+                tuple(harmonic_sensors(machine)), actuators,
+                tuple(int(h) for h in sorted(s.harmonics)),
+                machine_sampled_loop(model_machine or machine, T), scenario.damping.whirl_rad_s,
+                T, limits)
+
+
+def constant_speed_hz(scenario, fix: str) -> float:
+    """The scenario's constant speed (Hz), as its config gives it; ConfigError with ``fix``
+    for another profile."""
+    cfg = scenario.machine.config
+    speed = cfg.data.get("simulation", {}).get("speed", {})
+    if speed.get("type") != "constant":
+        raise cfg.section("simulation").error("speed", "commissioning tests at constant speeds; "
+                                              "this profile is not constant", fix=fix)
+    return float(speed["speed_hz"])
+
+
+def commission(data: dict, source: str, make_scenario, model_machine=None, speeds_hz=None,
+               **overrides) -> Commissioning:
+    """Commission the ``harmonic:`` section of the scenario ``data`` (a merged config) on its
+    machine: the test at each of ``speeds_hz`` (default: the scenario's constant speed; the
+    machine running steadily there, harmonic control off), the
+    margin on ``model_machine``'s loop (default: the scenario's machine); ``overrides``:
+    ``harmonic.commission`` keys given on the command line. ``make_scenario(data, source)``
+    builds a :class:`rotor_avc.scenario.Scenario`."""
+    import copy
+    scenario = make_scenario(data, source)
+    p = plan(scenario, model_machine, **overrides)
+    if speeds_hz is None:
+        speeds_hz = [constant_speed_hz(scenario, "give the speeds (--speed-hz F[,F...])")]
+    p.check_level(speeds_hz)
     results = []
     for f in speeds_hz:
+        seq = p.sequence()
         run = copy.deepcopy(data)
-        run.setdefault("simulation", {}).update(speed={"type": "constant", "speed_hz": f},
-                                                harmonic=False)
-        seq = run_test(make_scenario(run, source),
-                       TestSequence(sensors, actuators, harmonics, T, cs.test_force_n, cs))
+        run.setdefault("simulation", {}).update(
+            speed={"type": "constant", "speed_hz": f}, harmonic=False, initial_state="steady_state",
+            duration_s=seq.max_revolutions() / f)
+        seq = run_test(make_scenario(run, source), seq)
         if seq.failure is not None:
-            return Commissioning(tuple(sensors), tuple(actuators), harmonics, tuple(results),
-                                 cs.min_phase_margin_deg, seq.failure)
-        gain = s.gain
-        if gain == "auto":
-            from .lti import gain_schedule
-            sched = model_schedule(loop, sensors, actuators, harmonics, [TWO_PI * f], w_F)
-            gain = gain_schedule(loop, sched, s, [TWO_PI * f], AUTO_GAINS, w_F)[1][0]
-        margin = phase_margin(loop, TWO_PI * f, w_F, actuators, sensors, harmonics,
-                              seq.responses, s.law, gain, effort_weight=s.effort_weight,
-                              leakage=s.leakage, sensor_weights=s.sensor_weights)
-        results.append(SpeedCommission(f, seq.responses, seq.levels_n, seq.settling, margin,
-                                       tuple(seq.log)))
-    return Commissioning(tuple(sensors), tuple(actuators), harmonics, tuple(results),
-                         cs.min_phase_margin_deg)
+            return p.result(results, seq.failure)
+        results.append(p.speed_result(f, seq))
+    return p.result(results)

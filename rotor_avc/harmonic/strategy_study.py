@@ -1,8 +1,17 @@
 """Strategy comparison: one machine and speed profile under no control, the paper's feedback,
 adaptive harmonic control (each law; and, for 1x on plant outputs, the dynamic feed-forward of
 :mod:`.dynamic_block`: the Newton law adapting the excitation estimate that drives the internal
-loop), the two combined, and -- where the config has them -- the Sci. Rep. 2023 feed-forward and
-the balancer.
+loop; and commissioned: the Newton law on the influence table that commissioning identified on
+the machine first, :mod:`.commission`), the two combined, and -- where the config has them -- the
+Sci. Rep. 2023 feed-forward and the balancer.
+
+The commissioned variant commissions in-process before its run (harmonic control off, the
+config's ``harmonic.commission`` settings), at the profile's constant speed or, over a run-up,
+at the uncontrolled model's resonances and the top speed (:func:`commission_speeds`; the table
+is interpolated between them and held ``influence.rel_step`` beyond its ends, harmonic control
+is off below the first); it adapts the forces with that table and no declared model error. A
+refused commissioning (margin below ``min_phase_margin_deg``, or a test stopped) is said with
+its reason and the variant is not run (no adaptation).
 
 Every strategy is a variant of one scenario (a config with a ``harmonic:`` section): feedback =
 the config's ``controllers:``; harmonic = its ``harmonic:`` with the law replaced. Results from
@@ -38,6 +47,7 @@ from ..analysis.sampled_loop import machine_sampled_loop
 from ..errors import ModelError
 from ..machine import models_supporting
 from ..studies.progress import Progress
+from .config import harmonic_section
 from .dynamic_block import DynamicHarmonicController
 from .laws import convergence_radius, update_matrices
 from .lti import excitation_loop_poles, harmonic_poles, stable_gain_limit
@@ -49,6 +59,13 @@ LAWS = {"harmonic steepest descent": {"law": "steepest_descent"},
         "harmonic Newton": {"law": "newton", "effort_weight": 0.0},
         "harmonic WLS": {"law": "wls", "effort_weight": 1e-3}}
 DYNAMIC = "harmonic dynamic feed-forward"
+COMMISSIONED = "harmonic commissioned"
+#: the commissioned variant: the Newton law adapting the forces (a measured table has no
+#: disturbance model), its table added after commissioning
+COMMISSIONED_HARMONIC = {**LAWS["harmonic Newton"], "adapt_in": "forces",
+                         "feedforward": "quasi_static", "refresh_samples": 0}
+#: resonances closer than this (relative) are commissioned once
+SAME_SPEED = 0.01
 #: the dynamic variant's block length where the config gives none (samples)
 DYNAMIC_REFRESH = 25
 
@@ -108,6 +125,7 @@ def variants(data: dict, plant_outputs=None) -> dict[str, dict]:
     dynamic = dynamic_variant(data["harmonic"], plant_outputs)
     if dynamic is not None:
         make(DYNAMIC, False, dynamic)
+    make(COMMISSIONED, False, COMMISSIONED_HARMONIC)
     if data.get("controllers"):
         make("feedback + harmonic Newton", True, LAWS["harmonic Newton"])
     if data.get("model") in models_supporting("feedforward"):
@@ -218,6 +236,31 @@ def peak_reductions(result, reference, sensors, resonances) -> dict:
     return out
 
 
+def commission_speeds(resonances, min_speed_hz: float, max_speed_hz: float) -> list[float]:
+    """The speeds a run-up's commissioned variant is commissioned at (Hz): the resonances'
+    within ``[min_speed_hz, max_speed_hz]``, one of those closer than ``SAME_SPEED``, and the
+    top speed."""
+    out: list[float] = []
+    for f in sorted([f for _, f in resonances if min_speed_hz <= f <= max_speed_hz]
+                    + [max_speed_hz]):
+        if not out or f > out[-1] * (1 + SAME_SPEED):
+            out.append(f)
+    return out
+
+
+def commissioned(cfg: dict, scenario_from_config, source: str, speeds_hz) -> str | None:
+    """Commission the variant ``cfg`` at ``speeds_hz`` (None: its constant speed) and put the
+    identified table into it; the refusal, or None."""
+    from .commission import commission
+    result = commission(cfg, source, scenario_from_config, None, speeds_hz)
+    if result.refusal is not None:
+        return result.refusal
+    cfg["harmonic"]["influence"] = {**cfg["harmonic"].get("influence", {}),
+                                    "phase_error_deg": 0.0, "magnitude_factor": 1.0,
+                                    "table": result.table()}
+    return None
+
+
 def _say(bar: Progress, text: str) -> None:
     if bar.enabled:
         print(text, file=bar.stream, flush=True)
@@ -231,17 +274,26 @@ def strategy_study(data: dict, scenario_from_config, source: str = "", progress:
     ``progress``: one line per strategy started and finished, with the elapsed time and the
     time left (on ``stream``, default stderr)."""
     sensors = list(data["harmonic"].get("sensors", [])) if "harmonic" in data else []
-    outputs = ([o.name for o in scenario_from_config(data, source).machine.plant.outputs]
-               if sensors else None)
-    configs = variants(data, outputs)
+    base = scenario_from_config(data, source) if sensors else None
+    configs = variants(data, [o.name for o in base.machine.plant.outputs] if sensors else None)
     if not sensors:
         raise ModelError("harmonic.sensors is empty: nothing to rate the strategies on")
     start_s = float(data["harmonic"].get("start_s", 0.0))
+    resonances, speeds = [], None
+    if base.profile.speeds_rad_s.size > 1:
+        resonances = model_resonances(scenario_from_config(configs["no control"], source), sensors)
+        speeds = commission_speeds(resonances, harmonic_section(base.machine.config).min_speed_hz,
+                                   base.profile.max_speed_rad_s / (2 * np.pi))
     results, reference = [], None
     bar = Progress(len(configs), enabled=progress, stream=stream, unit="strategies")
     for i, (name, cfg) in enumerate(configs.items()):
         _say(bar, f"{name}: started  {bar.line(i)}")
         started = time.perf_counter()
+        if name == COMMISSIONED:
+            refusal = commissioned(cfg, scenario_from_config, source, speeds)
+            if refusal is not None:
+                _say(bar, f"{name}: refused: {refusal}  {bar.line(i + 1)}")
+                continue
         sc = scenario_from_config(cfg, source)
         block = sc.harmonic()
         ts = sc.run(harmonic=block, progress=False)
@@ -264,8 +316,7 @@ def strategy_study(data: dict, scenario_from_config, source: str = "", progress:
             float(max((np.abs(v).max() for v in feet), default=math.nan)),
             robustness(sc, block) if block is not None else {}))
         _say(bar, f"{name}: done in {time.perf_counter() - started:.0f} s  {bar.line(i + 1)}")
-    if sc.profile.speeds_rad_s.size > 1:
-        resonances = model_resonances(scenario_from_config(configs["no control"], source), sensors)
+    if resonances:
         for r in results:
             r.peak_reduction_db = peak_reductions(r, results[0], sensors, resonances)
     return results, sensors

@@ -1,2 +1,3 @@
-"""Self-contained interactive HTML pages (plotly.js embedded) and the JSON form of report data,
-shared by the comparison's report and the other commands' reports."""
+"""The one template of the interactive HTML reports (contents, unit selectors, plots; plotly.js
+loaded from beside the pages) and the JSON form of report data, shared by every command's
+report."""

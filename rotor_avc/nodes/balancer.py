@@ -17,7 +17,9 @@ block, and publishes
 
 A repeated sample (the plant resending) is answered from the cache without stepping twice. All
 four topics travel as serialised bytes (rotor_avc.nodes.messages: raw subscriptions and
-publishers, the same messages on the wire); a malformed message is ignored and reported.
+publishers, the same messages on the wire); a malformed message is ignored and reported. The
+read-only parameter ``answer_config`` says what decides its commands
+(rotor_avc.nodes.replay_config).
 """
 from __future__ import annotations
 
@@ -26,12 +28,16 @@ import math
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..bag.array_labels import balancer_labels
 from ..balancing.loop_block import LoopBalancer
 from ..balancing.scenario import machine_setup
+from ..block_kinds import BALANCER
 from ..blocks import LoopSample
+from ..compare.answer_config import answer_config
 from . import messages as m
 from . import taps
 from .feature_node import FeatureNode
+from .replay_config import declare_answer_config
 from .runtime import COMMON_PARAMS, Param, run_node
 
 PARAMS = COMMON_PARAMS + (
@@ -49,8 +55,9 @@ class Balancer(FeatureNode):
 
     def __init__(self, name: str = "balancer", **kwargs):
         super().__init__(name, **kwargs)
+        declare_answer_config(self, answer_config(self.scenario, BALANCER.name))
         self.excitations = [e.name for e in self.scenario.machine.plant.excitations]
-        names = [f"{e}_{part}" for e in self.excitations for part in ("re", "im")]
+        names = balancer_labels(self.excitations)
         self.command = m.LabelledBytes(names)
         self.estimate = m.LabelledBytes(names)
         ns = self.namespace

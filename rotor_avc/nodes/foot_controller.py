@@ -47,7 +47,9 @@ the filter once, so its state stays what it is (a few floats). The samples that 
 the callback show as gaps in the stamps (``dropped``, and ``dropped_per_s`` over the last
 diagnostics period) and, where the middleware reports them, as DDS lost samples
 (``dds_lost``). With ``initial_state: steady_state`` in the scenario the filter starts on the
-loop's periodic solution, computed as the in-process loop does.
+loop's periodic solution, computed as the in-process loop does. The read-only parameter
+``answer_config`` says what decides its answers (rotor_avc.compare.answer_config), which
+``rotor-avc replay`` compares with a bag's before re-driving it.
 """
 from __future__ import annotations
 
@@ -58,12 +60,15 @@ from rclpy.node import Node
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSCompatibility, qos_check_compatible, qos_policy_name_from_kind
 
+from ..block_kinds import FEEDBACK
+from ..compare.answer_config import answer_config
 from ..control.block import SAFE_OUTPUTS, build_digital_controllers
 from ..control.stamps import StampScreen
 from ..errors import RotorAvcError
 from ..sim.steady_state import start_in_steady_state
 from . import messages as m
 from . import taps
+from .replay_config import declare_answer_config
 from .runtime import (COMMON_PARAMS, Param, ParameterError, check_node_design,
                       declare_parameters, node_scenario, run_node)
 from .timing import LoopTiming
@@ -126,6 +131,7 @@ class FootController(Node):
             controllers[foot].reset()
         self.ctrl = controllers[foot]
         self.ctrl.safe_output = self.p["safe_output"]
+        declare_answer_config(self, answer_config(sc, FEEDBACK.name, foot))
         self.foot = foot
         self.axis = sc.machine.plant.actuator(foot).axis
         ns = self.p["namespace"]

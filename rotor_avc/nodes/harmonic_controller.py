@@ -17,6 +17,22 @@ harmonic and sensor, |U| per harmonic and actuator, fallbacks``; mode 0 off, 1 a
 :mod:`rotor_avc.harmonic.supervisor`) and ``/diagnostics`` (mode, reason, fall-backs) carry the
 estimate's state. Malformed messages are ignored and
 reported.
+
+Commission mode (``-p commission:=true``, with ``-p commission_out:=DIR`` and optionally
+``-p model:=CONFIG``, the controller's model of the margin check): the node first commissions
+at the scenario's constant speed on the signals it receives
+(:func:`rotor_avc.reports.commission_files.live_commissioning`, the procedure of
+``rotor-avc harmonic commission``): the test level is checked against the limits before any
+topic exists (refused: exit status 2, with the reason), then its test phasors go out on
+``harmonic/forces``; ``harmonic/status`` after each test revolution has mode 5 (commissioning),
+``updates`` the revolutions so far, ``E`` that revolution's phasors and ``U`` the test phasors
+applied; ``/diagnostics`` says the step (``i of n``: baseline or actuator, harmonic and test
+level, phase and revolutions). At the end it writes ``commission.json`` and, accepted,
+``commissioned.yaml`` into ``commission_out``, and after the last test phasor's fade-out adapts
+with that config's controller (its ``start_s`` counted from the switch); refused (margin
+below ``harmonic.commission.min_phase_margin_deg``, or the test stopped) it stays at zero force
+with mode 6 (refused) and ``/diagnostics`` ERROR with the reason. The margin is computed in the
+callback of the last test sample (in lockstep the plant waits for it).
 """
 from __future__ import annotations
 
@@ -25,8 +41,9 @@ import math
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..bag.array_labels import TIME_LABEL, harmonic_force_labels, harmonic_status_labels
 from ..errors import ModelError
-from ..harmonic.block import MODES
+from ..harmonic.commission_block import MODES
 from ..sim.stepper import MeasurementLayout
 from . import messages as m
 from . import taps
@@ -36,12 +53,13 @@ from .runtime import COMMON_PARAMS, Param, run_node
 PARAMS = COMMON_PARAMS + (
     Param("scenario", "", "scenario config with `simulation.harmonic: true`"),
     Param("namespace", m.NAMESPACE, "topic namespace of the machine"),
+    Param("commission", False, "commission first at the scenario's constant speed (test "
+          "phasors, margin check: harmonic.commission), then adapt with the identified table"),
+    Param("commission_out", "out/commission", "commission: folder of commission.json and "
+          "commissioned.yaml"),
+    Param("model", "", "commission: the controller's model config of the margin check "
+          "(default: the scenario's machine)"),
 )
-
-
-def force_names(plant, actuator_ids) -> list[str]:
-    """Labels of the ``harmonic/forces`` values (the plant checks them)."""
-    return [f"{a}_f{plant.actuator(a).axis}" for a in actuator_ids]
 
 
 class HarmonicControllerNode(FeatureNode):
@@ -56,16 +74,15 @@ class HarmonicControllerNode(FeatureNode):
         sc = self.scenario
         self.block.reset()
         layout_names = MeasurementLayout(sc.machine.plant).names
-        self.obs_label = ",".join(("time_s",) + tuple(layout_names))
+        self.obs_label = ",".join((TIME_LABEL,) + tuple(layout_names))
         self.sensor_at = [1 + layout_names.index(s) for s in self.block.sensors]
         ns = self.namespace
-        self.forces_msg = m.LabelledBytes(force_names(sc.machine.plant, self.block.actuator_ids))
+        plant = sc.machine.plant
+        self.forces_msg = m.LabelledBytes(harmonic_force_labels(
+            [(a, plant.actuator(a).axis) for a in self.block.actuator_ids]))
         H, M, N = len(self.block.harmonics), len(self.block.sensors), len(self.block.actuator_ids)
-        self.status_msg = m.LabelledBytes(
-            ["mode", "updates"] + [f"E{h}_{s}" for h in self.block.harmonics
-                                   for s in self.block.sensors]
-            + [f"U{h}_{a}" for h in self.block.harmonics for a in self.block.actuator_ids]
-            + ["fallbacks"])
+        self.status_msg = m.LabelledBytes(harmonic_status_labels(
+            self.block.harmonics, self.block.sensors, self.block.actuator_ids))
         self.pub_forces = taps.publisher(self, Float64MultiArray, m.topic("harmonic/forces", ns),
                                          m.LOCKSTEP_QOS)
         self.pub_status = taps.publisher(self, Float64MultiArray, m.topic("harmonic/status", ns),
@@ -77,9 +94,17 @@ class HarmonicControllerNode(FeatureNode):
         self.shape = (H, M, N)
         self.pending: dict[int, list] = {}          # stamp -> [angle/speed or None, signals]
         self.forces = [0.0] * N
+        self.said_mode = self.block.mode
 
     def build(self, scenario):
-        return scenario.harmonic()
+        if not self.p["commission"]:
+            return scenario.harmonic()
+        if not scenario.use_harmonic:
+            return None
+        from ..machine import load_machine
+        from ..reports.commission_files import live_commissioning
+        model = load_machine(self.p["model"]) if self.p["model"] else None
+        return live_commissioning(scenario, self.p["commission_out"], model)
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_joint(self, data: bytes) -> None:
@@ -134,9 +159,15 @@ class HarmonicControllerNode(FeatureNode):
         self._publish(stamp)
         if self.block.n_updates != updates:
             b = self.block
+            st = b.status
             self.pub_status.publish(self.status_msg.fill(stamp * 1e-9, [
-                MODES.index(b.mode), b.n_updates, *abs(b.E).ravel().tolist(),
-                *abs(b.U).ravel().tolist(), b.status["fallbacks"]]))
+                MODES.index(st["mode"]), b.n_updates, *abs(b.E).ravel().tolist(),
+                *abs(b.U).ravel().tolist(), st["fallbacks"]]))
+            if "commissioning" in st and st["mode"] != self.said_mode:
+                self.said_mode = st["mode"]
+                say = self.get_logger().error if st["mode"] == "refused" else \
+                    self.get_logger().info
+                say(f"commissioning: {st['commissioning']['progress']}")
 
     def _publish(self, stamp: int) -> None:
         self.pub_forces.publish(self.forces_msg.fill(stamp * 1e-9, self.forces))
@@ -146,9 +177,16 @@ class HarmonicControllerNode(FeatureNode):
         level = "warn" if self.last_fault or st["fallbacks"] or st["mode"] in (
             "frozen", "fading", "identifying") else "ok"
         text = self.last_fault or f"harmonic control: {st['mode']}"
-        return level, text, {"mode": st["mode"], "updates": st["updates"],
-                             "saturated": st["saturated"], "reason": st["reason"],
-                             "fallbacks": st["fallbacks"]}
+        values = {"mode": st["mode"], "updates": st["updates"], "saturated": st["saturated"],
+                  "reason": st["reason"], "fallbacks": st["fallbacks"]}
+        com = st.get("commissioning")
+        if com is not None:
+            if st["mode"] == "refused":
+                level, text = "error", f"commissioning {com['progress']}"
+            elif st["mode"] == "commissioning":
+                text = self.last_fault or f"commissioning: {com['progress']}"
+            values.update({f"commission_{k}": v for k, v in com.items()})
+        return level, text, values
 
 
 def main(args=None) -> int:

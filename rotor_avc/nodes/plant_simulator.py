@@ -66,6 +66,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..bag.array_labels import TIME_LABEL, balancer_labels, harmonic_force_labels
 from ..block_kinds import KINDS
 from ..errors import RotorAvcError
 from ..sim.loop import check_run_memory, forces_from_answers, start, timeseries_from_run
@@ -137,8 +138,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
             self.create_subscription(WrenchStamped, self.force_topics[actuator],
                                      lambda data, a=actuator: self._on_force(a, data),
                                      m.LOCKSTEP_QOS, raw=True)
-        command = ["time_s"] + [f"{e.name}_{part}" for e in plant.excitations
-                                for part in ("re", "im")]
+        command = [TIME_LABEL] + balancer_labels([e.name for e in plant.excitations])
         self.command_label, self.command_size = ",".join(command), len(command)
         if self.p["balancer"]:
             self.create_subscription(Float64MultiArray, m.topic("balancer/command", ns),
@@ -192,11 +192,11 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
             raise RotorAvcError(f"{self.get_name()}: harmonic: true runs in lockstep only "
                                 "-- fix: use mode lockstep")
         from ..harmonic.config import harmonic_actuators
-        from .harmonic_controller import force_names
         acts = harmonic_actuators(sc.machine)
         ids = [a.id for a in self.stepper.plant.actuators]
         self.harmonic_at = [ids.index(a) for a in acts]
-        self.harmonic_label = ",".join(["time_s"] + force_names(self.stepper.plant, acts))
+        self.harmonic_label = ",".join([TIME_LABEL] + harmonic_force_labels(
+            [(a, self.stepper.plant.actuator(a).axis) for a in acts]))
         self.create_subscription(Float64MultiArray, self.harmonic_topic, self._on_harmonic,
                                  m.LOCKSTEP_QOS, raw=True)
 
@@ -255,7 +255,7 @@ class PlantSimulator(PlantStartupMixin, PlantWatchMixin, RecorderWindowMixin, Re
         try:
             stamp, value = m.stamped_value(data, self.axis[actuator])  # raw: m.StampedVector
         except ValueError as exc:
-            self._fault(f"{foot}: actuator force ignored: {exc}")
+            self._fault(f"{actuator}: actuator force ignored: {exc}")
             return
         self.last_force_time[actuator] = time.monotonic()
         self.received[self.force_topics[actuator]] += 1

@@ -39,9 +39,11 @@ the defaults (:class:`AnswerRule.exact`).
 Start: replay first waits (at most ``discovery_timeout_s``) until every replayed topic has a
 subscriber and every subscription the graph lists is matched to its publisher, then subscribes to
 the live answer topics, waits until they are matched too, and lets :data:`SETTLE_S` pass, so
-the first messages are not lost (topics are volatile). The answers are taken by a volatile
-subscription (answers published before this replay, e.g. to an earlier one, are not taken for
-its own). In both modes the answers are collected;
+the first messages are not lost (topics are volatile). Before the first message a caller's gate
+may read the answering nodes' configuration and stop the replay (``rotor-avc replay`` refuses a
+node that does not run the bag's: rotor_avc.nodes.replay_config). The answers are taken by a
+volatile subscription (answers published before this replay, e.g. to an earlier one, are not
+taken for its own). In both modes the answers are collected;
 :func:`rotor_avc.nodes.replay_check.compare_answers` checks them against the bag's recorded answers (the regression check of a
 controller: same filter, same inputs -> the same forces).
 """
@@ -64,8 +66,9 @@ from ..block_kinds import KINDS
 from ..errors import RotorAvcError
 from . import messages as m
 from . import taps
+from .replay_config import read_answer_configs
 from .replay_timing import LATE_S, Schedule, read_ahead
-from .runtime import make_executor
+from .runtime import make_executor, spin_until
 
 _NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 #: after our side matched: time for the other sides to match us too (DDS matches each side on
@@ -195,6 +198,8 @@ class ReplayResult:
     achieved_rate: float | None = None          # timed: recorded time / wall time taken
     late: int = 0                               # timed: log times published > LATE_S late
     max_lag_s: float = 0.0                      # timed: the most a log time went out late
+    foreign: dict[str, int] = field(default_factory=dict)  # answer -> answers to stamps this
+    #                                           replay had not sent (another publisher's), ignored
 
     def rate_warning(self) -> str | None:
         """Timed replay that did not hold its rate: the achieved rate and the late log times."""
@@ -220,13 +225,15 @@ class Replayer(Node):
         self.live: dict[str, Answer] = {}
         self.answers: dict[str, list[tuple[int, bytes]]] = {}
         self.awaiting: dict[str, set[int]] = {}
+        self.sent: dict[str, set[int]] = {}         # answer topic -> stamps published for it
+        self.foreign: dict[str, int] = {}
         self.connected = False
 
     # -- start ----------------------------------------------------------------------------------
     def connect(self, executor, discovery_timeout_s: float) -> None:
         """Wait for subscribers of the replayed topics, then subscribe to the live answers."""
         t_end = time.monotonic() + discovery_timeout_s
-        _spin_until(executor, self._subscribed, t_end)
+        spin_until(executor, self._subscribed, t_end)
         # a node's publishers may be discovered after its subscriptions: take the answering
         # topics once the set has been stable for LIVE_STABLE_S (bounded by the timeout)
         live, since = None, time.monotonic()
@@ -248,13 +255,15 @@ class Replayer(Node):
             cls = _import_class(msg_type, f"answer topic {topic}")
             self.answers[topic] = []
             self.awaiting[topic] = set()
+            self.sent[topic] = set()
+            self.foreign[topic] = 0
             subs[topic] = self.create_subscription(
                 cls, topic, self._on_answer(topic, m.raw_time_reader(msg_type)),
                 m.RELIABLE_QOS, raw=True)
-        _spin_until(executor, lambda: all(s.get_publisher_count() >= self.count_publishers(t)
-                                          for t, s in subs.items()),
-                    time.monotonic() + max(discovery_timeout_s, 1.0))
-        _spin_until(executor, lambda: False, time.monotonic() + SETTLE_S)
+        spin_until(executor, lambda: all(s.get_publisher_count() >= self.count_publishers(t)
+                                         for t, s in subs.items()),
+                   time.monotonic() + max(discovery_timeout_s, 1.0))
+        spin_until(executor, lambda: False, time.monotonic() + SETTLE_S)
         self.connected = True
 
     def _subscribed(self) -> bool:
@@ -267,10 +276,13 @@ class Replayer(Node):
         return True
 
     def _on_answer(self, topic: str, time_of):
-        answers, awaiting = self.answers[topic], self.awaiting[topic]
+        answers, awaiting, sent = self.answers[topic], self.awaiting[topic], self.sent[topic]
 
         def on_raw(data: bytes) -> None:
             stamp = time_of(data)
+            if stamp not in sent:            # not an answer to us (e.g. a late one to an
+                self.foreign[topic] += 1     # earlier replay of the same bag): counted, ignored
+                return
             answers.append((stamp, data))
             awaiting.discard(stamp)
 
@@ -283,7 +295,9 @@ class Replayer(Node):
         self.published[msg.topic] += 1
         answer = self.live.get(self.plan.topics[msg.topic])
         if answer is not None:
-            self.awaiting[answer.topic].add(self._stamp(msg))
+            stamp = self._stamp(msg)
+            self.awaiting[answer.topic].add(stamp)
+            self.sent[answer.topic].add(stamp)
 
     def _resend(self, group) -> None:
         """Publish again the messages of ``group`` whose answer has not arrived."""
@@ -298,13 +312,20 @@ class Replayer(Node):
         return msg.time_ns if stamp is None else stamp
 
     def run(self, executor, *, fast: bool = False, rate: float = 1.0,
-            discovery_timeout_s: float = 3.0, answer_timeout_s: float = 5.0) -> ReplayResult:
+            discovery_timeout_s: float = 3.0, answer_timeout_s: float = 5.0,
+            gate=None) -> ReplayResult | None:
         """Replay the whole plan (after :meth:`connect`, called here unless the caller did);
-        ``executor`` spins this node (and may spin others)."""
+        ``executor`` spins this node (and may spin others). ``gate``: called once connected,
+        before anything is published, with the answer configuration of every node answering a
+        replayed topic (rotor_avc.nodes.replay_config, read within ``answer_timeout_s``); when
+        it returns False nothing is published and the result is None."""
         if not fast and not (rate > 0 and np.isfinite(rate)):
             raise ReplayError(f"rate {rate} must be a positive number -- fix: e.g. --rate 0.5")
         if not self.connected:
             self.connect(executor, discovery_timeout_s)
+        if gate is not None and not gate(read_answer_configs(
+                self, executor, {a.topic for a in self.live.values()}, answer_timeout_s)):
+            return None
         self.published = dict.fromkeys(self.plan.topics, 0)
         self.resends = 0
         t_start = time.monotonic()
@@ -317,8 +338,8 @@ class Replayer(Node):
         finally:
             messages.close()              # a reader thread ends before the bag may be closed
         if not fast:
-            _spin_until(executor, lambda: not any(self.awaiting.values()),
-                        time.monotonic() + answer_timeout_s)
+            spin_until(executor, lambda: not any(self.awaiting.values()),
+                       time.monotonic() + answer_timeout_s)
         wall = time.monotonic() - t_start
         for pub in self.pubs.values():     # delivered before the node may go away
             pub.wait_for_all_acked(Duration(seconds=answer_timeout_s))
@@ -328,7 +349,8 @@ class Replayer(Node):
             {trigger: a.topic for trigger, a in self.live.items()},
             [t for t in self.plan.answers if t not in self.live], self.resends, self.answers,
             {t: len(s) for t, s in self.awaiting.items() if s},
-            *(() if fast else (rate, schedule.achieved_rate(), schedule.late, schedule.max_lag_s)))
+            *(() if fast else (rate, schedule.achieved_rate(), schedule.late, schedule.max_lag_s)),
+            foreign={t: n for t, n in self.foreign.items() if n})
 
     def _publish_all(self, executor, messages, schedule: "Schedule | None",
                      answer_timeout_s: float) -> int:
@@ -364,7 +386,7 @@ class Replayer(Node):
         while full():
             n_before = sum(map(len, self.awaiting.values()))
             progress = lambda: sum(map(len, self.awaiting.values())) < n_before  # noqa: E731
-            if not _spin_until(executor, progress, time.monotonic() + timeout_s):
+            if not spin_until(executor, progress, time.monotonic() + timeout_s):
                 topics = ", ".join(t for t, s in self.awaiting.items() if len(s) >= TIMED_WINDOW)
                 raise ReplayError(
                     f"no answer within {timeout_s:g} s on {topics} with {TIMED_WINDOW} triggers "
@@ -378,7 +400,7 @@ class Replayer(Node):
         resends); ReplayError after ``timeout_s``."""
         t_end = time.monotonic() + timeout_s
         done = lambda: not any(self.awaiting.values())     # noqa: E731
-        while not _spin_until(executor, done, min(t_end, time.monotonic() + RESEND_AFTER_S)):
+        while not spin_until(executor, done, min(t_end, time.monotonic() + RESEND_AFTER_S)):
             if time.monotonic() >= t_end:
                 late = {t: sorted(s) for t, s in self.awaiting.items() if s}
                 raise ReplayError(
@@ -390,17 +412,8 @@ class Replayer(Node):
             self._resend(group)
 
 
-def _spin_until(executor, condition, t_end: float) -> bool:
-    while not condition():
-        left = t_end - time.monotonic()
-        if left <= 0:
-            return condition()
-        executor.spin_once(timeout_sec=min(left, 0.05))
-    return True
-
-
 def replay_bag(reader: BagReader, plan: ReplayPlan, *, executor_kind: str = "events",
-               **options) -> ReplayResult:
+               **options) -> ReplayResult | None:
     """Run a replay in its own rclpy context (usable in a process that already runs rclpy);
     ``options`` as :meth:`Replayer.run`."""
     context = rclpy.Context()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -135,6 +136,17 @@ def make_executor(kind: str, context=None):
     if kind == "multi_threaded":
         return MultiThreadedExecutor(context=context)
     return SingleThreadedExecutor(context=context)
+
+
+def spin_until(executor, condition, t_end: float) -> bool:
+    """Spin ``executor`` until ``condition()`` holds (True) or the monotonic time ``t_end``
+    has passed (then ``condition()``)."""
+    while not condition():
+        left = t_end - time.monotonic()
+        if left <= 0:
+            return condition()
+        executor.spin_once(timeout_sec=min(left, 0.05))
+    return True
 
 
 #: topics every node has (ROS 2's own), left out of its ready line

@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration.session import Calibration
-from ..interactive.page import Figure, page, table_html
-from ..output_files import write_text
+from ..interactive.page import Figure, table_html, write_page
 
 MODELS = {"configured": "#888888", "calibrated": "#1f77b4"}
 
@@ -150,9 +149,9 @@ def write_calibration_html(cal: Calibration, doc: dict, path: Path, point_channe
                               ("verdict_after", "compare calibrated")],
                    {"verdict_before": _verdict_class, "verdict_after": _verdict_class}),
     ]
-    if doc["left_out"]:
-        blocks.append("<h3>Points left out</h3><ul>" + "".join(
-            f"<li>{html.escape(x)}</li>" for x in doc["left_out"]) + "</ul>")
+    blocks.append("<h3>Points left out</h3><ul>" + ("".join(
+        f"<li>{html.escape(x)}</li>" for x in doc["left_out"])
+        or "<li>none: every measured point of every recording is used</li>") + "</ul>")
     all_rows = doc["data"] + doc["validation"]
     if any(r["configured"].get("mac") for r in all_rows):
         blocks.append(_mac_figure([r for r in all_rows if r["configured"].get("mac")]))
@@ -171,6 +170,4 @@ def write_calibration_html(cal: Calibration, doc: dict, path: Path, point_channe
     blocks.append("<h2>Measured against the configured and the calibrated model</h2>")
     for curve in cal.curves:
         blocks += _overlays(curve) + _band_overlays(curve)
-    title = f"Calibration of {cal.config_path.name}"
-    write_text(path, page(title, blocks))
-    return path
+    return write_page(path, f"Calibration of {cal.config_path.name}", blocks)

@@ -12,8 +12,7 @@ import numpy as np
 from ..analysis.campbell import CampbellDiagram
 from ..analysis.mode_shapes import dominant_parts, shape_rows
 from .campbell_plot import COLOUR_BY, WHIRL_STYLE, frequency_top, order_line
-from ..interactive.page import Figure, page, table_html
-from ..output_files import write_text
+from ..interactive.page import SPEED_UNIT, Figure, table_html, write_page
 
 
 #: phase steps of the deflection slider over one period
@@ -37,8 +36,10 @@ def campbell_figures(cd: CampbellDiagram, colour: str, orders, max_freq_hz: floa
                                 "dash": WHIRL_STYLE[whirl[k]][1]},
                        "marker": {"size": 5, "color": np.nan_to_num(c[:, k], posinf=cmax),
                                   "colorscale": "Viridis", "cmin": cmin, "cmax": cmax,
-                                  "showscale": k == shown[0], "colorbar": {"title": {"text": label}}},
-                       "hovertemplate": f"{cd.caption(k, ref)}<br>speed %{{x:.4g}}<br>f %{{y:.4g}} Hz"
+                                  "showscale": k == shown[0],
+                                  "colorbar": {"title": {"text": label, "side": "right"},
+                                               "x": 1.0, "xanchor": "left", "thickness": 14}},
+                       "hovertemplate": f"{cd.caption(k, ref)}<br>speed %{{x:.4g}} {SPEED_UNIT}<br>f %{{y:.4g}} Hz"
                                         f"<br>{label.split(' [')[0]} %{{customdata:.4g}}<extra></extra>"})
     for order in orders:
         xs, ys = order_line(cd, order, top)
@@ -56,7 +57,8 @@ def campbell_figures(cd: CampbellDiagram, colour: str, orders, max_freq_hz: floa
                        "line": {"color": "red", "width": 2}})
     campbell = Figure("campbell", "damped natural frequencies over speed", traces,
                       y_title="damped natural frequency [Hz]",
-                      layout={"yaxis": {"range": [0, top]}}, height_px=560)
+                      layout={"yaxis": {"range": [0, top]}, "legend": {"x": 1.14}},
+                      height_px=560)
     damping = Figure("damping", label.split(" [")[0] + " over speed",
                      [{"type": "scatter", "mode": "lines", "name": cd.labels[k], "x": s, "y": c[:, k]}
                       for k in shown], y_title=label)
@@ -97,7 +99,7 @@ def write_campbell_html(cd: CampbellDiagram, path: Path, title: str, colour: str
     onsets = [{**r, "speed_rpm": r["speed_hz"] * 60} for r in cd.instability_onsets()]
     ref = cd.reference_index(reference_speed_hz)
     (fig_campbell, fig_damping), shown = campbell_figures(cd, colour, orders, max_freq_hz, ref)
-    blocks = [fig_campbell, "<h2>Critical speeds</h2>",
+    blocks = ["<h2>Campbell diagram</h2>", fig_campbell, "<h2>Critical speeds</h2>",
               table_html(crit, [("mode", "mode"), ("order", "order"), ("speed_hz", "speed [Hz]"),
                                 ("speed_rpm", "speed [rpm]"), ("freq_hz", "frequency [Hz]")])
               if crit else "<p>No excitation line meets a mode in the speed range.</p>",
@@ -105,11 +107,10 @@ def write_campbell_html(cd: CampbellDiagram, path: Path, title: str, colour: str
               table_html(onsets, [("mode", "mode"), ("speed_hz", "speed [Hz]"),
                                   ("speed_rpm", "speed [rpm]"), ("freq_hz", "whirl frequency [Hz]")])
               if onsets else "<p>Every mode stays stable over the speed range.</p>",
-              fig_damping,
+              "<h2>Damping over speed</h2>", fig_damping,
               f"<h2>Mode shapes at {cd.speed_hz[ref]:.4g} Hz</h2><p class=\"note\">generalised "
               "coordinates in their own units (m, rad), normalised to the largest; phases "
               "relative to it; the slider turns the motion through one period. Damping: "
               f"{cd.damping_rule}.</p>"]
     blocks += [shape_figure(cd, k, ref) for k in shown]
-    write_text(path, page(title, blocks, default_speed_unit=speed_unit))
-    return path
+    return write_page(path, title, blocks, speed_unit)

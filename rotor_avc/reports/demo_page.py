@@ -13,8 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..interactive.page import Figure, page, table_html
-from ..output_files import write_text
+from ..interactive.page import Figure, page_files, table_html, write_page
 
 #: case -> (label, plotly colour)
 CASES = {"case2": ("case 2, loops open", "#d62728"), "case3": ("case 3, loops closed", "#1f77b4")}
@@ -72,10 +71,15 @@ def poles_tables(poles: dict) -> str:
 
 
 def links(folder: Path, files: list[Path]) -> str:
-    """A list of links, relative to the page's folder."""
-    items = [f'<li><a href="{html.escape(os.path.relpath(f, folder))}">'
-             f"{html.escape(os.path.relpath(f, folder))}</a></li>" for f in files]
-    return "<ul>" + "".join(items) + "</ul>"
+    """A list of links, relative to the page's folder; a report page with the plotly.min.js it
+    loads from its folder."""
+    def item(f: Path) -> str:
+        rel = html.escape(os.path.relpath(f, folder))
+        script = page_files(f)[1]
+        needs = (f' <span class="note">(and {html.escape(os.path.relpath(script, folder))}, '
+                 "which it loads)</span>" if f.suffix == ".html" and script.is_file() else "")
+        return f'<li><a href="{rel}">{rel}</a>{needs}</li>'
+    return "<ul>" + "".join(item(Path(f)) for f in files) + "</ul>"
 
 
 def write_demo_page(path: Path, comps: dict, reductions: list[dict], counts: dict, poles: dict,
@@ -98,6 +102,5 @@ def write_demo_page(path: Path, comps: dict, reductions: list[dict], counts: dic
                "<h2>Reports and files</h2>", links(path.parent, files),
                "<h2>Poles of cases 1-3 (worst-case procedure, Werner 2021 Fig. 4)</h2>",
                poles_tables(poles)]
-    write_text(path, page("rotor_avc demo: active vibration control of the Werner 2021 machine",
-                          blocks))
-    return path
+    return write_page(path, "rotor_avc demo: active vibration control of the Werner 2021 machine",
+                      blocks)

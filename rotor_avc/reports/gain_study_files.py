@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..analysis.gain_study import GainStudy
 from ..control.spec import FEEDBACK_ORDER
+from ..interactive.page import page_files
 from .study_report import write_study_html
 from ..output_files import open_text, save_figure
 
@@ -92,7 +93,7 @@ def plot_gain_study(study: GainStudy, stem: Path) -> list[Path]:
     paths.append(stem.with_name(stem.name + "_resonances.png"))
     save_figure(fig, paths[-1], dpi=110)
     plt.close(fig)
-    paths.append(write_study_html(study, stem.with_name(stem.name + ".html"), glabel))
+    paths += page_files(write_study_html(study, stem.with_name(stem.name + ".html"), glabel))
     return paths
 
 

@@ -11,6 +11,8 @@ from .campbell_plot import speed_axis
 from ..output_files import save_figure
 
 ORDERS = (1, 2, 3, 4)
+#: the waterfall's colour range below its peak, in dB (the PNG and the interactive page)
+WATERFALL_RANGE_DB = 80.0
 
 
 def _pyplot():
@@ -27,19 +29,25 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def plot_waterfall(wf: Waterfall, unit: str, path: Path, speed_unit: str = "rpm",
-                   max_freq_hz: float | None = None) -> Path:
-    """Amplitude (dB re 1 SI unit) over rotor speed and frequency, orders marked."""
-    plt = _pyplot()
-    factor, xlabel = speed_axis(speed_unit)
+def waterfall_levels(wf: Waterfall, max_freq_hz: float | None = None):
+    """``(top frequency [Hz], bins shown, amplitude in dB re 1 SI unit, its peak)`` of the
+    waterfall up to ``max_freq_hz`` (default 1.2 x the highest order at the top speed)."""
     top = max_freq_hz or 1.2 * max(ORDERS) * wf.speed_hz.max()
     sel = wf.freq_hz <= top
     with np.errstate(divide="ignore"):
         level = 20 * np.log10(wf.amplitude[:, sel])
-    finite = level[np.isfinite(level)]
+    return top, sel, level, float(level[np.isfinite(level)].max())
+
+
+def plot_waterfall(wf: Waterfall, unit: str, path: Path, speed_unit: str = "hz",
+                   max_freq_hz: float | None = None) -> Path:
+    """Amplitude (dB re 1 SI unit) over rotor speed and frequency, orders marked."""
+    plt = _pyplot()
+    factor, xlabel = speed_axis(speed_unit)
+    top, sel, level, peak = waterfall_levels(wf, max_freq_hz)
     fig, ax = plt.subplots(figsize=(8, 5.5))
     mesh = ax.pcolormesh(wf.speed_hz * factor, wf.freq_hz[sel], level.T, shading="nearest",
-                         cmap="magma", vmin=finite.max() - 80, vmax=finite.max())
+                         cmap="magma", vmin=peak - WATERFALL_RANGE_DB, vmax=peak)
     fig.colorbar(mesh, ax=ax, label=f"amplitude [dB re 1 {unit}]")
     for k in ORDERS:
         ax.plot(wf.speed_hz * factor, k * wf.speed_hz, "w--", lw=0.7)
@@ -52,7 +60,7 @@ def plot_waterfall(wf: Waterfall, unit: str, path: Path, speed_unit: str = "rpm"
     return _save(fig, path)
 
 
-def plot_bode(track: OneXTrack, channel: str, path: Path, speed_unit: str = "rpm") -> Path:
+def plot_bode(track: OneXTrack, channel: str, path: Path, speed_unit: str = "hz") -> Path:
     """1x amplitude (log scale, SI) and phase over speed: measured points, model line."""
     plt = _pyplot()
     factor, xlabel = speed_axis(speed_unit)
@@ -73,7 +81,7 @@ def plot_bode(track: OneXTrack, channel: str, path: Path, speed_unit: str = "rpm
     return _save(fig, path)
 
 
-def plot_polar(track: OneXTrack, channel: str, path: Path, speed_unit: str = "rpm") -> Path:
+def plot_polar(track: OneXTrack, channel: str, path: Path, speed_unit: str = "hz") -> Path:
     """1x phasor in the complex plane over speed (Nyquist plot), some speeds labelled."""
     plt = _pyplot()
     factor, xlabel = speed_axis(speed_unit)
@@ -95,7 +103,7 @@ def plot_polar(track: OneXTrack, channel: str, path: Path, speed_unit: str = "rp
     return _save(fig, path)
 
 
-def plot_orbits(orbits: list[Orbit], path: Path, speed_unit: str = "rpm") -> Path:
+def plot_orbits(orbits: list[Orbit], path: Path, speed_unit: str = "hz") -> Path:
     """Displacement orbits (first channel horizontal, second vertical) in micrometres."""
     plt = _pyplot()
     factor, xlabel = speed_axis(speed_unit)

@@ -10,9 +10,10 @@ import numpy as np
 
 from ..compare.report import iso_heading, iso_table
 from ..compare.runup_views import OneXTrack, Orbit, Waterfall
-from ..interactive.page import Figure, page, table_html
-from .runup_plots import ORDERS
-from ..output_files import write_text
+from ..analysis.api684 import verdict_line
+from ..interactive.page import SPEED_UNIT, Figure, table_html, write_page
+from ..interactive.plot_data import colour_scale
+from .runup_plots import ORDERS, WATERFALL_RANGE_DB, waterfall_levels
 
 API_COLUMNS = [("speed_hz", "N_c [Hz]"), ("speed_rpm", "N_c [rpm]"), ("peak", "peak"),
                ("amplification_factor", "AF"), ("n1_hz", "N_1 [Hz]"), ("n2_hz", "N_2 [Hz]"),
@@ -22,16 +23,18 @@ VERDICT_CLASS = {"verdict": lambda v: {"pass": "pass", "fail": "fail"}.get(v, ""
 
 
 def waterfall_figure(wf: Waterfall, unit: str) -> Figure:
-    top = 1.2 * max(ORDERS) * wf.speed_hz.max()
-    sel = wf.freq_hz <= top
-    traces = [{"type": "heatmap", "x": wf.speed_hz, "y": wf.freq_hz[sel], "z": wf.amplitude[:, sel].T,
-               "colorscale": "Magma", "colorbar": {"title": {"text": unit}},
-               "hovertemplate": "speed %{x:.4g}<br>f %{y:.4g} Hz<br>amplitude %{z:.4g}<extra></extra>"}]
+    """Amplitude spectra over speed in dB re 1 ``unit`` over the top :data:`WATERFALL_RANGE_DB`
+    (as ``waterfall.png``: the magnitude selector leaves it in dB), orders marked."""
+    top, sel, level, peak = waterfall_levels(wf)
+    traces = [{"type": "heatmap", "x": wf.speed_hz, "y": wf.freq_hz[sel], "z": level.T,
+               "colorscale": colour_scale("Magma"), "zmin": peak - WATERFALL_RANGE_DB, "zmax": peak,
+               "hovertemplate": f"speed %{{x:.4g}} {SPEED_UNIT}<br>f %{{y:.4g}} Hz<br>"
+                                "amplitude %{z:.1f} dB<extra></extra>"}]
     traces += [{"type": "scatter", "mode": "lines", "name": f"{k}x", "x": wf.speed_hz,
                 "y": k * wf.speed_hz, "line": {"color": "white", "dash": "dash", "width": 1}}
                for k in ORDERS]
-    return Figure("waterfall", f"waterfall of {wf.channel} (amplitude spectra over speed)", traces,
-                  y_title="frequency [Hz]", unit=unit, magnitude_key="z",
+    return Figure("waterfall", f"waterfall of {wf.channel} (amplitude spectra over speed, dB)",
+                  traces, y_title="frequency [Hz]", z_title=f"dB re 1 {unit}",
                   layout={"yaxis": {"range": [0, top]}, "showlegend": False}, height_px=520)
 
 
@@ -84,12 +87,20 @@ def api_rows(checks) -> list[dict]:
     return [{**c.row(), "speed_rpm": c.speed_hz * 60} for c in checks]
 
 
-def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], wf: Waterfall,
-                     wf_unit: str, track: OneXTrack, orbits: list[Orbit], tables: dict,
-                     operating_hz, speed_unit: str, iso20816=()) -> Path:
+def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], notes: list[str],
+                     verdict: dict, wf: Waterfall, wf_unit: str, track: OneXTrack,
+                     orbits: list[Orbit], tables: dict, operating_hz, speed_unit: str,
+                     iso20816=()) -> Path:
+    """The page: ``verdict`` the API 684 verdict (:func:`rotor_avc.analysis.api684.
+    overall_verdict`, its undetermined rows counted in the line), ``notes`` the run's (windows
+    left out among them); ``speed_unit`` the unit it opens with."""
     lo, hi = operating_hz
-    blocks = ["<h2>Run</h2>", table_html([{"k": k, "v": v} for k, v in summary],
+    css = "fail" if verdict["failed"] else "pass"
+    note_items = "".join(f"<li>{html.escape(n)}</li>" for n in notes) or "<li>none</li>"
+    blocks = [f'<p class="{css}" style="font-size:20px">{html.escape(verdict_line(verdict))}</p>',
+              "<h2>Run</h2>", table_html([{"k": k, "v": v} for k, v in summary],
                                          [("k", "item"), ("v", "value")]),
+              f"<h2>Notes</h2><ul>{note_items}</ul>",
               iso_heading(iso20816), iso_table(iso20816),
               "<h2>Waterfall</h2>", waterfall_figure(wf, wf_unit),
               f"<h2>API 684 unbalance-response checks</h2><p class=\"note\">Operating speed range "
@@ -110,5 +121,4 @@ def write_runup_html(path: Path, title: str, summary: list[tuple[str, str]], wf:
         blocks += bode_figures(track, channel)
     if orbits:
         blocks += ["<h2>Orbits</h2>", orbit_figure(orbits)]
-    write_text(path, page(title, blocks, default_speed_unit=speed_unit))
-    return path
+    return write_page(path, title, blocks, speed_unit)

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from ..compare.report import _plt
-from ..interactive.page import Figure, page, table_html
-from ..output_files import make_folder, open_text, save_figure, write_text
+from ..interactive.page import Figure, table_html, write_page
+from ..output_files import make_folder, open_text, save_figure
 
 #: what the table's columns mean (the page's introduction)
 INTRODUCTION = ("1x per sensor re the uncontrolled run (mean of the last revolutions), time to "
@@ -134,6 +134,4 @@ def write_report(results, sensors, out_dir: Path, source: str, plot: bool = True
     blocks += ["<h2>1x over the run</h2>", *figures(results, sensors),
                "<p>Files next to this page: " + ", ".join(
                    f'<a href="{html.escape(n)}">{html.escape(n)}</a>' for n in files) + ".</p>"]
-    path = out_dir / "index.html"
-    write_text(path, page(f"Vibration control strategies: {source}", blocks))
-    return path
+    return write_page(out_dir / "index.html", f"Vibration control strategies: {source}", blocks)

@@ -26,6 +26,7 @@ from typing import Iterator, Mapping
 import numpy as np
 
 from .. import __version__
+from ..bag.array_labels import balancer_labels
 from ..blocks import Balancer, Harmonic, LoopSample, Synchronous
 from ..errors import ModelError
 from ..resources import FLOAT_BYTES, check_memory
@@ -269,11 +270,13 @@ def timeseries_from_run(stepper, Y, U, C, metadata, initial_state, controllers,
     if test is not None:           # d_k, added to u_k by the stepper (rotor_avc.sim.broadband)
         channels[test.channel] = test.values(first, n)
         units[test.channel] = "N"
-    if C is not None:
-        for j, exc in enumerate(stepper.plant.excitations):
-            for part, values in (("re", C[:, j].real), ("im", C[:, j].imag)):
-                channels[f"balancer_{exc.name}_{part}"] = values.copy()
-                units[f"balancer_{exc.name}_{part}"] = exc.unit
+    if C is not None:                # the correction, as the balancer node's labelled arrays
+        excitations = stepper.plant.excitations
+        parts = np.stack([C.real, C.imag], axis=-1).reshape(len(C), -1)     # re, im per excitation
+        for label, values, exc in zip(balancer_labels([e.name for e in excitations]), parts.T,
+                                      [e for e in excitations for _ in ("re", "im")]):
+            channels[f"balancer_{label}"] = values.copy()
+            units[f"balancer_{label}"] = exc.unit
     meta = {"software": f"rotor_avc {__version__}", "plant": stepper.plant.name,
             "sample_period_s": stepper.T, "damping": stepper.damping.describe(),
             "initial_state": initial_state,
