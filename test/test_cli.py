@@ -2,6 +2,7 @@
 import argparse
 import csv
 import json
+import re
 import subprocess
 import sys
 
@@ -158,3 +159,21 @@ def test_a_machine_config_run_as_a_scenario_names_the_scenarios_using_it():
     assert "scenario_case3_steady" in r.stderr and "scenario_case3_stepped" in r.stderr
     assert "scenario_case2_runup" not in r.stderr          # a case-2 machine
     assert r.stderr.count("\n") == 1
+
+
+def test_frf_writes_an_interactive_page_of_its_curves(tmp_path, capsys):
+    """`frf` writes index.html beside frf.csv: one plot per point and excitation, the magnitudes of
+    the CSV, read in a browser as every report is."""
+    from browser_check import check_report
+    out = tmp_path / "frf"
+    assert main(["frf", "foot_mount_case3", "--speed-hz", "1:120:300", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"wrote {out / 'index.html'}" in printed and f"wrote {out / 'plotly.min.js'}" in printed
+    with open(out / "frf.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    # a plot per point and excitation with a nonzero component: <point>_<component>_<excitation>
+    expected = {"frf_{}_{}".format(c.rsplit("_", 3)[0], c.rsplit("_", 2)[1])
+                for c in rows[0] if c.endswith("_mag") and any(float(r[c]) for r in rows)}
+    ids = set(re.findall(r'class="plot" id="([^"]+)"', (out / "index.html").read_text()))
+    assert ids == expected and "frf_bearing_D_static" in ids
+    assert check_report(out / "index.html") == len(expected)

@@ -5,13 +5,15 @@ import numpy as np
 
 from ..closed_loop.frf import unbalance_frf
 from ..machine import load_machine
-from ..reports.frf_files import plot_frf, write_frf_csv
+from ..interactive.page import page_files
+from ..reports.frf_files import plot_frf, write_frf_csv, write_frf_html
 from ..output_files import make_folder
 from .common import add_speed_option, config_frf_speeds_hz, output_folder, speed_range_hz
 
 NAME = "frf"
 HELP = ("Synchronous (unbalance) frequency responses over rotor speed of every output and "
-        "actuator force, written to DIR/frf.csv with dB plots (damping at w_F = Omega).")
+        "actuator force, written to DIR/frf.csv with dB plots and DIR/index.html (damping at "
+        "w_F = Omega).")
 EXAMPLE = "rotor-avc frf foot_mount_case3 --speed-hz 1:250:2000 --out out/case3"
 
 
@@ -34,5 +36,7 @@ def run(args) -> int:
     print(f"wrote {csv_path} ({len(frf.responses)} responses x {len(speeds_hz)} speeds)")
     if not args.no_plots:
         for path in plot_frf(frf, args.out, machine.plant.name):
+            print(f"wrote {path}")
+        for path in page_files(write_frf_html(frf, args.out / "index.html", machine.plant.name)):
             print(f"wrote {path}")
     return 0

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..closed_loop.frf import SpeedFrf
+from ..interactive.page import Figure, write_page
 from ..output_files import open_text, save_figure
 
 
@@ -26,6 +27,15 @@ def write_frf_csv(frf: SpeedFrf, path: Path) -> Path:
     return path
 
 
+def _groups(frf: SpeedFrf) -> dict[tuple[str, str], dict[str, list[str]]]:
+    """``(kind of point, excitation) -> point -> response keys`` (one per component)."""
+    groups: dict[tuple[str, str], dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
+    for key, (quantity, excitation) in frf.parts.items():
+        point, _, component = quantity.rpartition("_")
+        groups[(point.split("_")[0], excitation)][point].append(key)
+    return groups
+
+
 def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
     """One PNG per (kind of point, excitation): subplots per point, one curve per component,
     magnitude in dB re 1 SI unit over the rotational frequency, phase below."""
@@ -33,12 +43,8 @@ def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    groups: dict[tuple[str, str], dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
-    for key, (quantity, excitation) in frf.parts.items():
-        point, _, component = quantity.rpartition("_")
-        groups[(point.split("_")[0], excitation)][point].append(key)
     paths = []
-    for (kind, excitation), points in groups.items():
+    for (kind, excitation), points in _groups(frf).items():
         fig, axes = plt.subplots(2, len(points), figsize=(3.6 * len(points) + 1, 6),
                                  sharex=True, squeeze=False)
         for col, (point, keys) in enumerate(points.items()):
@@ -65,3 +71,22 @@ def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+def write_frf_html(frf: SpeedFrf, path: Path, title: str = "") -> Path:
+    """``index.html``: the magnitudes of :func:`plot_frf`'s groups, one interactive plot per
+    point (a curve per component; dB or SI units and Hz or rpm by the page's selectors)."""
+    blocks: list = []
+    for (kind, excitation), points in _groups(frf).items():
+        blocks.append(f"<h2>{kind} response to {excitation} excitation</h2>")
+        for point, keys in points.items():
+            traces = [{"type": "scatter", "mode": "lines", "name": frf.parts[key][0]
+                       .rpartition("_")[2], "x": frf.speed_hz, "y": np.abs(frf.responses[key])}
+                      for key in keys if np.any(frf.responses[key])]
+            if traces:
+                blocks.append(Figure(f"frf_{point}_{excitation}", f"{point}: {excitation}",
+                                     traces, x_title="rotational frequency f_r",
+                                     y_title="magnitude per unit excitation",
+                                     unit=frf.units[keys[0]], magnitude_key="y"))
+    return write_page(path, f"Unbalance FRFs over speed {title}".strip(), blocks)
+
