@@ -203,9 +203,14 @@ def test_timed_replay_keeps_the_recorded_timing(run):
     # a delivery's delay has a floor (the replay's start) and a long tail on a busy machine. A
     # late start is caught up (the schedule is absolute: the floor falls early on); after that
     # the floor stays put over the second half of the run: the replay neither runs ahead of the
-    # scaled schedule (the floor would keep falling) nor drifts behind it (it would rise)
+    # scaled schedule (the floor would fall: slope -1 + rate_used / rate) nor drifts behind it
+    # (it would rise). The slope is the median of the pairwise slopes of the second half's
+    # tenths (Theil-Sen), so a moment of stalling on a loaded machine does not decide it
     floors = np.array([np.min(part) for part in np.array_split(lateness, 10)])
-    assert np.all(np.diff(floors) < 0.03) and np.ptp(floors[5:]) < 0.03, floors
+    centres = np.array([np.mean(part) for part in np.array_split(schedule, 10)])
+    slope = np.median([(floors[j] - floors[i]) / (centres[j] - centres[i])
+                       for i in range(5, 10) for j in range(i + 1, 10)])
+    assert abs(slope) < 0.05, (slope, floors)
 
 
 def test_plan_errors_name_the_topic_and_fix(run):

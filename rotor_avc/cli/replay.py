@@ -33,6 +33,7 @@ from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
 from ..compare.answer_config import BagAnswers, NodeCheck
 from ..errors import RotorAvcError
+from ..studies.progress import Progress
 from .common import nonnegative_float
 
 NAME = "replay"
@@ -126,9 +127,12 @@ def run(args) -> int:
         print(f"replay {args.bag}: {len(plan.topics)} topic(s), "
               + ("lockstep (--fast)" if args.fast else f"timed x{args.rate:g}"))
         gate = ConfigGate(reader, args.bag, args.force)
+        bar = Progress(sum(reader.topics[t].count for t in plan.topics), unit="messages")
         result = R.replay_bag(reader, plan, executor_kind=args.executor, fast=args.fast,
                               rate=args.rate, discovery_timeout_s=args.discovery_timeout,
-                              answer_timeout_s=args.answer_timeout, gate=gate)
+                              answer_timeout_s=args.answer_timeout, gate=gate,
+                              progress=bar.update)
+        bar.close()
         if result is None:
             return EXIT_REFUSED
         sent = sum(result.published.values())

@@ -74,6 +74,8 @@ _NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 #: after our side matched: time for the other sides to match us too (DDS matches each side on
 #: its own; a message sent before the subscriber's side matched is not delivered to it)
 SETTLE_S = 0.2
+#: log times between two progress reports
+PROGRESS_EVERY = 500
 #: the answering topics are taken once their set has not changed for this long (discovery)
 LIVE_STABLE_S = 1.0
 #: lockstep: an unanswered trigger is published again after this wall time
@@ -313,12 +315,13 @@ class Replayer(Node):
 
     def run(self, executor, *, fast: bool = False, rate: float = 1.0,
             discovery_timeout_s: float = 3.0, answer_timeout_s: float = 5.0,
-            gate=None) -> ReplayResult | None:
+            gate=None, progress=None) -> ReplayResult | None:
         """Replay the whole plan (after :meth:`connect`, called here unless the caller did);
         ``executor`` spins this node (and may spin others). ``gate``: called once connected,
         before anything is published, with the answer configuration of every node answering a
         replayed topic (rotor_avc.nodes.replay_config, read within ``answer_timeout_s``); when
-        it returns False nothing is published and the result is None."""
+        it returns False nothing is published and the result is None. ``progress``: called with
+        the number of messages published so far, every :data:`PROGRESS_EVERY` log times."""
         if not fast and not (rate > 0 and np.isfinite(rate)):
             raise ReplayError(f"rate {rate} must be a positive number -- fix: e.g. --rate 0.5")
         if not self.connected:
@@ -334,7 +337,7 @@ class Replayer(Node):
         if not fast:
             messages = read_ahead(messages, READ_AHEAD)
         try:
-            samples = self._publish_all(executor, messages, schedule, answer_timeout_s)
+            samples = self._publish_all(executor, messages, schedule, answer_timeout_s, progress)
         finally:
             messages.close()              # a reader thread ends before the bag may be closed
         if not fast:
@@ -353,7 +356,7 @@ class Replayer(Node):
             foreign={t: n for t, n in self.foreign.items() if n})
 
     def _publish_all(self, executor, messages, schedule: "Schedule | None",
-                     answer_timeout_s: float) -> int:
+                     answer_timeout_s: float, progress=None) -> int:
         """Publish every log time's messages, timed by ``schedule`` or (None) in lockstep; the
         number of log times."""
         samples = 0
@@ -376,6 +379,8 @@ class Replayer(Node):
                 schedule.published(time_ns, due)
                 if self.live:
                     executor.spin_once(timeout_sec=0)    # take the answers that came meanwhile
+            if progress is not None and not samples % PROGRESS_EVERY:
+                progress(sum(self.published.values()))
         return samples
 
     def _hold_window(self, executor, timeout_s: float, time_ns: int) -> None:
