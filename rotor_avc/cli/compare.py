@@ -10,7 +10,7 @@ from ..compare.iso_zones import format_iso_table, iso20816_entries
 from ..compare.left_out import left_out_points
 from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
-from ..compare.report import ACCEPTANCE, verdict_text, write_report
+from ..compare.report import ACCEPTANCE, write_report
 from ..machine import load_machine
 from .common import output_folder
 
@@ -100,5 +100,6 @@ def report(comp, bag, out: Path) -> dict:
     left = left_out_points(comp)
     for note in left.notes():
         print(f"  left out: {note}")
-    print(f"{ACCEPTANCE}\n-> {verdict_text(comp, left)}{why}; report: {files['index']}")
+    counted = f", {left.summary()}" if left.summary() else ""
+    print(f"{ACCEPTANCE}\n-> {comp.verdict}{why}{counted}; report: {files['index']}")
     return files
