@@ -58,6 +58,43 @@ def test_wls_converges_to_the_penalised_optimum():
     assert np.allclose(U, optimum, rtol=1e-10, atol=1e-12)
 
 
+def test_weighted_newton_and_leaky_weighted_wls_settle_on_their_closed_forms():
+    """With sensor weights W the Newton step is ``pinv(W^1/2 G) W^1/2 E``: its fixed point solves
+    ``G^H W (P + G U) = 0``, the weighted least squares ``U = -(G^H W G)^-1 G^H W P`` (more
+    sensors than actuators: the error is not cancelled). wls with leakage ``l``: the fixed
+    point of ``U = A U - B (P + G U)`` is ``(l + mu) U = -mu H^-1 G^H W P``, the penalised
+    optimum scaled by ``mu / (mu + l)``."""
+    G = random_g(3, 2)
+    P = RNG.standard_normal(3) + 1j * RNG.standard_normal(3)
+    w = np.array([1.0, 4.0, 0.25])
+    GhW = G.conj().T * w
+    wls_fit = -np.linalg.solve(GhW @ G, GhW @ P)
+    assert np.abs(wls_fit + np.linalg.pinv(G) @ P).max() > 0.05 * np.abs(wls_fit).max()
+    A_U, B = update_matrices(G, "newton", 0.6, sensor_weights=w)
+    U = np.zeros(2, complex)
+    for _ in range(200):
+        U = A_U @ U - B @ (P + G @ U)
+    np.testing.assert_allclose(U, wls_fit, rtol=1e-10, atol=1e-12)
+    beta, mu, leak = 0.1, 0.7, 0.2
+    s2 = np.linalg.norm(np.sqrt(w)[:, None] * G, 2) ** 2
+    H = GhW @ G + beta * s2 * np.eye(2)
+    A_U, B = update_matrices(G, "wls", mu, effort_weight=beta, leakage=leak, sensor_weights=w)
+    U = np.zeros(2, complex)
+    for _ in range(400):
+        U = A_U @ U - B @ (P + G @ U)
+    np.testing.assert_allclose(U, -mu / (mu + leak) * np.linalg.solve(H, GhW @ P), rtol=1e-10,
+                               atol=1e-12)
+
+
+@pytest.mark.parametrize("G, gain, message", [
+    (random_g(2, 3), -0.5, "adaptation gain must be > 0"),
+    (random_g(2, 3) * np.array([1.0, np.nan, 1.0]), 0.5, "finite .sensors, actuators. matrix"),
+    (random_g(1, 3)[0], 0.5, "finite .sensors, actuators. matrix")])
+def test_a_negative_gain_or_an_estimate_that_is_no_finite_matrix_is_refused(G, gain, message):
+    with pytest.raises(ModelError, match=message):
+        update_matrices(G, "newton", gain)
+
+
 def test_robustness_map_shows_where_each_law_diverges():
     # Newton and steepest descent: the error iteration's eigenvalues are 1 - (mu/m) e^{-j phi}
     # times (1 for Newton; sigma_i^2 / sigma_max^2 <= 1 for steepest descent), so both diverge

@@ -150,7 +150,8 @@ class HarmonicController:
         self.harmonics = schedule.harmonics
         self._one = self.harmonics == (1,)
         self._shape = (len(self.harmonics), m, n)
-        self._min_speed = TWO_PI * settings.min_speed_hz
+        # the speeds it runs at: from min_speed_hz, inside the schedule
+        self._min_speed = max(TWO_PI * settings.min_speed_hz, float(schedule.speeds_rad_s[0]))
         self._max_speed = float(schedule.speeds_rad_s[-1])
         self._start_k = math.ceil(settings.start_s / self.sample_period_s - 1e-9)
         self._refresh = settings.refresh_samples if settings.adapt_in == "excitations" else 0
