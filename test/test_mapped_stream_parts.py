@@ -94,14 +94,18 @@ def recording(dropout=None, nan_values=0, imu=None, vel=None):
                Series("/vel", vel_ns[keep] - 7_000_000, vel_ns[keep], data=vz[keep]))
 
 
-@pytest.fixture(scope="module")
-def loaded(tmp_path_factory):
-    path = tmp_path_factory.mktemp("map") / "map.yaml"
+def write_map(path, **rest):
     path.write_text(yaml.safe_dump({
         "channels": {"foot_DL_az": {"topic": "/imu", "field": "a.z", "sign": -1, "scale": G},
                      "foot_DR_az": {"topic": "/imu", "field": "b.z"},
                      "bearing_D_vz": {"topic": "/vel", "field": "data", "stamp": "log"}},
-        "shaft": {"source": "pulse", "topic": "/tacho"}}))
+        "shaft": {"source": "pulse", "topic": "/tacho"}, **rest}))
+    return path
+
+
+@pytest.fixture(scope="module")
+def loaded(tmp_path_factory):
+    path = write_map(tmp_path_factory.mktemp("map") / "map.yaml")
     return load_machine_and_map("foot_mount_case3", path), path
 
 
@@ -195,3 +199,26 @@ def test_a_mapped_topic_missing_from_the_bag_is_refused(monkeypatch, loaded):
     del bag.topics["/vel"]
     with pytest.raises(ConfigError, match=r"channels.bearing_D_vz.topic: no topic /vel"):
         stream(monkeypatch, loaded, bag)
+
+
+def test_compare_streams_a_recording_without_a_test_force_or_reads_it_whole(monkeypatch,
+                                                                           tmp_path):
+    """``compare_mapped``: streamed by default, read whole onto a grid with ``in_memory``; the
+    same windows and 1x phasors either way (each channel fitted at its own stamps)."""
+    from rotor_avc.compare import mapped_run
+    bag = recording()
+    for module in (mapped_stream, mapped_run):
+        monkeypatch.setattr(module, "open_bag", lambda path, **kw: contextlib.nullcontext(bag))
+    path = write_map(tmp_path / "map.yaml",
+                     unbalance={"static": {"magnitude": 1e-2, "phase_deg": 0.0}})
+    streamed = mapped_stream.compare_mapped("rig.mcap", "foot_mount_case3", path)
+    whole = mapped_stream.compare_mapped("rig.mcap", "foot_mount_case3", path, in_memory=True)
+    assert type(streamed.run).__name__ == "MappedStream"
+    assert type(whole.run).__name__ == "RecordedRun"
+    assert any("order tracking streamed" in n for n in streamed.notes)
+    assert any(n.startswith("resampling: linear interpolation") for n in whole.notes)
+    a, b = streamed.one_x, whole.one_x
+    assert a.method == b.method and a.speed_rad_s.size == 3
+    np.testing.assert_allclose(a.speed_rad_s, b.speed_rad_s, rtol=1e-12)
+    for name in a.measured:
+        np.testing.assert_allclose(a.measured[name], b.measured[name], rtol=1e-9)

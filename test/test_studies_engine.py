@@ -165,3 +165,62 @@ def test_a_clock_that_does_not_advance_gives_the_floor_cost(monkeypatch):
     run = run_study(spec, Recording(), progress=False)
     assert spec.evaluator.seen == list(range(5)) and run.cost_per_point_s == 1e-6
     assert run.batch_size == math.ceil(engine.TASK_TARGET_S / 1e-6)
+
+
+@dataclass
+class Paced(Counting):
+    """``Counting`` after ``pauses_s[index]`` of work (the first point: a warm-up)."""
+
+    pauses_s: tuple = ()
+
+    def evaluate(self, context, point):
+        time.sleep(self.pauses_s[point.index])
+        return super().evaluate(context, point)
+
+
+def test_the_cost_per_point_leaves_out_the_first_points_warm_up():
+    """Two points, 300 ms and 10 ms: the cost is the second one's (>= 10 ms, far below the 155 ms
+    mean of both, with room for a busy machine's late wake-ups); one point of 20 ms: its own
+    time."""
+    run = run_study(StudySpec(ValueList("g", [0.0, 1.0]), Paced(pauses_s=(0.3, 0.01))), Recording(),
+                    progress=False)
+    assert 0.01 <= run.cost_per_point_s < 0.12
+    run = run_study(StudySpec(ValueList("g", [0.0]), Paced(pauses_s=(0.02,))), Recording(),
+                    progress=False)
+    assert run.cost_per_point_s >= 0.02
+
+
+@pytest.mark.parametrize("batch_size, last", [(None, 3), (1, 3), (1, 9), (None, 9)])
+def test_a_stop_request_ends_the_study_after_the_point_under_way(tmp_path, batch_size, last):
+    """SIGTERM while point ``last`` is evaluated (serially, in the measuring or in batches):
+    that point is journaled, no later point is evaluated, the tables hold the finished points,
+    and the study ends as stopped -- also when it was the study's last point (the request is
+    read between points and after the last, rotor_avc.studies.interrupt)."""
+    import os
+    import signal
+
+    class Stopping(Counting):
+        def evaluate(self, context, point):
+            if point.index == last:
+                os.kill(os.getpid(), signal.SIGTERM)
+            return super().evaluate(context, point)
+
+    spec = StudySpec(ValueList("g", np.arange(10, dtype=float)), Stopping())
+    with pytest.raises(KeyboardInterrupt):
+        run_study(spec, SerialBackend(), out=tmp_path / "study", batch_size=batch_size,
+                  progress=False)
+    done = list(range(last + 1))
+    assert spec.evaluator.seen == done
+    journal = (tmp_path / "study" / "journal.csv").read_text().splitlines()
+    assert sorted(int(line.split(",")[0]) for line in journal[2:]) == done
+    assert len((tmp_path / "study" / "points.csv").read_text().splitlines()) == 1 + len(done)
+
+
+def test_the_progress_shows_every_tenth_of_the_study(capsys):
+    """On a stream that is no terminal, one line per tenth: 10 points in batches of one give
+    lines at 1/10 ... 10/10, the last one full."""
+    run_study(study(10), Recording(), batch_size=1, progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split("] ")[1].split(" ")[0] for line in lines] == \
+        [f"{k}/10" for k in range(1, 11)]
+    assert lines[-1].startswith("[" + "#" * 30 + "] 10/10 points")

@@ -72,6 +72,12 @@ def test_an_empty_journal_file_is_started_with_its_header(tmp_path):
     assert path.read_text() == HEAD + "1,1.25,1.5,false,0,\n"
 
 
+def test_a_journal_of_its_two_header_lines_holds_no_point(tmp_path):
+    path = tmp_path / "journal.csv"
+    path.write_text(HEAD)                            # created, stopped before the first point
+    assert journal(path).read(POINTS) == {} and path.read_text() == HEAD
+
+
 def test_a_cut_off_last_line_is_dropped_from_the_file(tmp_path):
     path = tmp_path / "journal.csv"
     path.write_text(HEAD + "1,1.25,1.5,false,0,\n2,3.0,0.2")
@@ -114,7 +120,9 @@ def test_a_line_this_study_did_not_write_is_refused_with_its_number(tmp_path, te
 
 @pytest.mark.parametrize("data, line, problem", [
     (HEAD.encode() + b"1,1.25,\x00\n", 3, "holds NUL bytes"),
-    (HEAD.encode() + b"1,1.25,1.5,false,0,\n2,\xff\n", 4, "is not UTF-8 text")])
+    (HEAD.encode() + b"\x00\n", 3, "holds NUL bytes"),              # the line's first byte
+    (HEAD.encode() + b"1,1.25,1.5,false,0,\n2,\xff\n", 4, "is not UTF-8 text"),
+    (HEAD.encode() + b"1,1.25,1.5,false,0,\n\xff\n", 4, "is not UTF-8 text")])
 def test_bytes_that_are_no_text_are_refused_with_their_line(tmp_path, data, line, problem):
     path = tmp_path / "journal.csv"
     path.write_bytes(data)
@@ -153,3 +161,20 @@ def test_writes_of_part_of_the_buffer_are_continued(tmp_path, monkeypatch):
     j.append([["1", "1.25", "1.5", "false", "0", ""], ["0", "0.5", "1.0", "true", "1", ""]])
     j.close()
     assert path.read_text() == HEAD + "1,1.25,1.5,false,0,\n0,0.5,1.0,true,1,\n"
+
+
+def test_each_append_is_synced_to_the_disk_and_close_releases_the_file(tmp_path, monkeypatch):
+    path = tmp_path / "journal.csv"
+    j = journal(path)
+    j.open()
+    fd = j._fd
+    synced = []
+    real_fsync = os.fsync
+    monkeypatch.setattr(J.os, "fsync", lambda f: (synced.append(f), real_fsync(f)))
+    j.append([["0", "0.5", "1.0", "true", "1", ""]])
+    j.append([["1", "1.25", "1.5", "false", "0", ""]])
+    assert synced == [fd, fd]
+    j.close()
+    with pytest.raises(OSError):
+        os.fstat(fd)                                     # the descriptor is closed
+    j.close()                                            # and closing again is harmless
