@@ -15,7 +15,7 @@ import re
 import sys
 from pathlib import Path
 
-from .errors import ConfigError, did_you_mean
+from .errors import ConfigError, did_you_mean, path_suggestion
 from .section import Section
 from .yaml_reading import parse, read_text
 
@@ -44,7 +44,10 @@ def config_dirs() -> list[Path]:
 
 
 def find_config(name: str | os.PathLike) -> Path:
-    """Resolve a config given as a path, or as a bare name of a file shipped in ``config/``."""
+    """Resolve a config given as a path, or as a bare name of a file shipped in ``config/``.
+
+    Neither: the error suggests the closest existing path for a name written as a path (with a
+    folder or a suffix; :func:`rotor_avc.errors.path_suggestion`), else the closest shipped name."""
     path = Path(name)
     if path.is_file():
         return path
@@ -54,9 +57,10 @@ def find_config(name: str | os.PathLike) -> Path:
             if (folder / candidate).is_file():
                 return folder / candidate
     shipped = sorted({p.stem for d in config_dirs() for p in d.glob("*.yaml")})
+    as_path = path_suggestion(path) if path.parent != Path() or path.suffix else ""
     raise ConfigError(
         str(name), "no such file, and no shipped config of that name"
-        + did_you_mean(Path(name).stem, shipped),
+        + (as_path or did_you_mean(path.stem, shipped)),
         fix="give a path to a YAML file or one of: " + ", ".join(shipped))
 
 
@@ -90,7 +94,9 @@ def _include_list(value, text: str, path: Path) -> list[str]:
 def _include_path(name: str, text: str, path: Path) -> Path:
     """The file an ``include:`` entry of ``path`` names, confined (see the module docstring):
     refused -- without opening it, and alike whether it exists or not -- outside the including
-    file's folder and the package's ``config`` folders."""
+    file's folder and the package's ``config`` folders. One inside that does not exist is
+    answered with the closest entry of its folder (not for a name with ``..``, so that the
+    listed folder is inside too)."""
     where = _key_line(text, "include")
     target = path.parent / name
     folder = path.parent                          # ``path`` is resolved already
@@ -111,7 +117,8 @@ def _include_path(name: str, text: str, path: Path) -> Path:
                           fix="copy the file next to the including one (or below it), or give "
                               "the path of a shipped config", source=str(path))
     if not found:
-        raise ConfigError(where, f"included file {name!r} not found",
+        near = "" if ".." in Path(name).parts else path_suggestion(name, folder)
+        raise ConfigError(where, f"included file {name!r} not found{near}",
                           fix="give a path relative to the including file", source=str(path))
     return target
 

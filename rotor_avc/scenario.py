@@ -29,7 +29,7 @@ undamped natural frequencies at standstill, the modes its controllers act on); s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -66,14 +66,20 @@ class Scenario:
     feedforward_method: str | None = None
     test_force: BroadbandForce | None = None
     use_harmonic: bool = False
+    _tables: dict = field(default_factory=dict, init=False, repr=False)
 
     @property
     def n_steps(self) -> int:
         return max(1, int(round(self.duration_s / self.sample_period_s)))
 
     def stepper(self) -> PlantStepper:
-        return PlantStepper(self.machine.plant, self.sample_period_s, self.profile,
-                            self.amplitudes, self.damping, self.grid_tol, self.test_force)
+        """A stepper at sample 0; every one of this scenario shares one speed grid and its
+        matrices (built by the first, extended on demand)."""
+        st = PlantStepper(self.machine.plant, self.sample_period_s, self.profile,
+                          self.amplitudes, self.damping, self.grid_tol, self.test_force,
+                          self._tables.get("table"))
+        self._tables["table"] = st.table
+        return st
 
     def controllers(self) -> dict:
         return build_digital_controllers(self.machine, self.sample_period_s)
@@ -137,12 +143,12 @@ class Scenario:
         return run_loop(stepper, controllers, n_steps, progress=progress, **options)
 
     def run_blocks(self, progress: bool | None = None, stop=lambda: False,
-                   block_steps: int = BLOCK_STEPS, controllers=None):
+                   block_steps: int = BLOCK_STEPS, controllers=None, fast_path: bool = True):
         """The run as consecutive time-series blocks (rotor_avc.sim.loop.run_blocks): memory
         independent of the duration; ``stop()`` True after a block ends the run there."""
         stepper, controllers, n_steps, options = self._loop(controllers=controllers)
         return run_blocks(stepper, controllers, n_steps, progress=progress, stop=stop,
-                          block_steps=block_steps, **options)
+                          block_steps=block_steps, fast_path=fast_path, **options)
 
     def _loop(self, balancer=None, harmonic=None, controllers=None):
         """``(stepper, controllers, n_steps, options of the loop)``."""

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import ConfigError
+from .errors import ConfigError, path_suggestion
 
 #: refuse YAML files larger than this (bytes); ``ROTOR_AVC_MAX_YAML_MB`` overrides it
 MAX_YAML_BYTES = 10 * 2**20
@@ -135,13 +135,14 @@ _NOT_PRINTABLE = re.compile("[^\t\n\r\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd"
 
 def read_text(path: Path) -> str:
     """The file as text: size-limited, UTF-8, printable, no tabs in indentation (errors name
-    the line)."""
+    the line; a file that does not exist, the closest existing path)."""
     limit = max_yaml_bytes()
     try:
         with open(path, "rb") as f:
             data = f.read(limit + 1)
     except OSError as exc:
-        raise ConfigError(str(path), f"cannot read file ({exc.strerror})",
+        near = path_suggestion(path) if isinstance(exc, FileNotFoundError) else ""
+        raise ConfigError(str(path), f"cannot read file ({exc.strerror}){near}",
                           fix="check the path") from None
     if len(data) > limit:
         raise ConfigError(str(path), f"larger than the limit of {limit / 2**20:g} MB for a "

@@ -1,7 +1,8 @@
 """The ROS graph records every sample, also on a busy machine: the graph launcher
 (rotor_avc.nodes.graph) in both layouts, with two CPU-bound competitors, records per topic as
 many messages as were published, and the bag's messages equal those of the in-process loop's bag
-of the same scenario (`rotor-avc simulate --out x.mcap`) byte for byte; a recorder that stops
+of the same scenario, every block on its per-sample path as in the graph (`rotor-avc simulate
+--per-sample --out x.mcap`), byte for byte; a recorder that stops
 mid-run ends the lockstep run with exit status 1 and a message saying so; the demo's scenarios
 and config/ros_case3.yaml run through the launcher."""
 import signal
@@ -59,7 +60,7 @@ def assert_recorded_like_in_process(run, scenario: str, tmp_path: Path):
     for topic, c in run.counts.items():
         assert c["published"] == c["recorded"] and c["lost"] == 0, (topic, c)
     sim = tmp_path / "in_process.mcap"
-    assert main(["simulate", scenario, "--out", str(sim)]) == 0
+    assert main(["simulate", scenario, "--out", str(sim), "--per-sample"]) == 0
     graph, loop = messages_by_topic(run.bag), messages_by_topic(sim)
     assert sorted(graph) == sorted(loop)
     for topic in loop:
@@ -103,7 +104,7 @@ def test_graph_records_the_harmonic_controller(tmp_path, layout):
     assert report.ok and report.samples == n, report.verdict()
     assert SAMPLED.match(forces)                   # checked for gaps like the plant's topics
     sim = tmp_path / "in_process.mcap"
-    assert main(["simulate", sc, "--out", str(sim)]) == 0
+    assert main(["simulate", sc, "--out", str(sim), "--per-sample"]) == 0
     graph, loop = messages_by_topic(run.bag), messages_by_topic(sim)
     assert len({t for t, _ in graph[forces]}) == n
     plant_topics = [t for t in loop if not t.endswith("/actuator_force")]

@@ -46,11 +46,12 @@ def ros():
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    """A 0.2 s case-3 run at 5 kHz (1000 samples) as a bag from `rotor-avc simulate`."""
+    """A 0.2 s case-3 run at 5 kHz (1000 samples) as a bag from `rotor-avc simulate
+    --per-sample` (the controllers stepped as the nodes step them: answers equal to the last bit)."""
     tmp = tmp_path_factory.mktemp("replay")
     sc = scenario_file(tmp, "foot_mount_case3", 20.0, duration_s=0.2)
     bag = tmp / "case3.mcap"
-    assert cli(["simulate", sc, "--out", str(bag)]) == 0
+    assert cli(["simulate", sc, "--out", str(bag), "--per-sample"]) == 0
     return sc, bag
 
 
@@ -61,7 +62,7 @@ def long_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("replay_long")
     sc = scenario_file(tmp, "foot_mount_case3", 20.0, duration_s=2.0)
     bag = tmp / "case3_long.mcap"
-    assert cli(["simulate", sc, "--out", str(bag)]) == 0
+    assert cli(["simulate", sc, "--out", str(bag), "--per-sample"]) == 0
     return sc, bag
 
 
@@ -361,7 +362,9 @@ def test_a_later_replay_takes_only_its_own_answers(run):
             ex.shutdown()
             ctrl.destroy_node()
         checks = [compare_answers(reader, plan, r)[0] for r in results]
-    assert [len(r.answers[DL_FORCE]) for r in results] == [1000, 1000]
+    # one answer per stamp sent, and one more for each trigger sent again on a busy machine
+    assert [len({stamp for stamp, _ in r.answers[DL_FORCE]}) for r in results] == [1000, 1000]
+    assert all(len(r.answers[DL_FORCE]) <= 1000 + r.resends for r in results)
     assert checks[0].passed(1e-12) and not checks[1].passed(1e-12)
     assert results[0].foreign == {}     # nothing but its own answers reached the first replay
 

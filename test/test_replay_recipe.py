@@ -134,13 +134,13 @@ def test_readme_replay_recipe_runs_as_written():
 @pytest.fixture(scope="module")
 def stepped_bag(tmp_path_factory):
     """0.1 s of config/scenario_case3_stepped.yaml (starting at 10 Hz, 5 kHz: 500 samples), as
-    `rotor-avc simulate` records it."""
+    `rotor-avc simulate --per-sample` records it."""
     tmp = tmp_path_factory.mktemp("replay_refusal")
     scenario = tmp / "stepped_short.yaml"
     scenario.write_text(f"include: {find_config('scenario_case3_stepped')}\n"
                         "simulation:\n  duration_s: 0.1\n")
     bag = tmp / "stepped.mcap"
-    proc = run_command(f"rotor-avc simulate {scenario} --out {bag}")
+    proc = run_command(f"rotor-avc simulate {scenario} --per-sample --out {bag}")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return scenario, bag
 

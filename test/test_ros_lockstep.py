@@ -141,7 +141,7 @@ def test_a_paused_controller_is_waited_for_and_the_bag_equals_simulate(tmp_path)
     assert "the run goes on in lockstep" in plant and "Traceback" not in plant
     assert "run complete:" in plant, plant
     sim = tmp_path / "simulate.mcap"
-    assert main(["simulate", sc, "--out", str(sim)]) == 0
+    assert main(["simulate", sc, "--out", str(sim), "--per-sample"]) == 0
     graph, loop = messages_by_topic(bag), messages_by_topic(sim)
     assert sorted(graph) == sorted(loop)
     for topic in loop:

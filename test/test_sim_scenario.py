@@ -104,3 +104,21 @@ def test_cli_simulate(tmp_path, capsys):
     bad = scenario_file(tmp_path, dict(BASE, duration_s=-2.0))
     assert main(["simulate", str(bad), "--out", str(out)]) == 2
     assert "simulation.duration_s" in capsys.readouterr().err
+
+
+def test_a_scenarios_runs_share_one_speed_grid(tmp_path):
+    """The second run of a run-up scenario reuses the first one's speed grid and matrices (built
+    once) and equals the first bit for bit; a stepper of another setup cannot take that grid."""
+    from rotor_avc.errors import ModelError
+    from rotor_avc.sim.speed_profile import constant_speed
+    from rotor_avc.sim.stepper import PlantStepper
+    sc = load_scenario(str(scenario_file(tmp_path, dict(
+        BASE, speed={"type": "ramp", "start_hz": 10.0, "stop_hz": 30.0, "duration_s": 0.05}))))
+    first = sc.run(progress=False)
+    table = sc.stepper().table
+    assert sc.stepper().table is table and table.nodes.size > 2
+    again = sc.run(progress=False)
+    for name, values in first.channels.items():
+        np.testing.assert_array_equal(again.channels[name], values)
+    with pytest.raises(ModelError, match="same plant, sample period"):
+        PlantStepper(sc.machine.plant, sc.sample_period_s, constant_speed(20.0), table=table)

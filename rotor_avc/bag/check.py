@@ -22,7 +22,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import BagError
+from .errors import BagError, no_such_bag
 from .integrity import IntegrityReport, TopicData, scan_bag
 from .lockstep import read_lockstep
 from .metadata import CONFIG_RECORD, DEFAULT_QOS, QOS_CHOICES, load_yaml
@@ -53,7 +53,7 @@ def bag_files(path) -> tuple[list[Path], dict | None]:
     if path.is_file():
         return [path], None
     if not path.is_dir():
-        raise BagError(path, "no such bag file or directory", fix="check the path")
+        raise no_such_bag(path, "bag file or directory")
     body = bagfile_information(path)
     files = listed_files(path, body)
     if not files:

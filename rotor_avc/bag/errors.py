@@ -1,7 +1,7 @@
 """The error every bag problem is reported with (a one-line message, no traceback)."""
 from __future__ import annotations
 
-from ..errors import RotorAvcError
+from ..errors import RotorAvcError, path_suggestion
 
 
 class BagError(RotorAvcError, ValueError):
@@ -19,6 +19,13 @@ class BagError(RotorAvcError, ValueError):
         if fix:
             text += f" -- fix: {fix}"
         super().__init__(text)
+
+
+def no_such_bag(path, what: str = "bag file") -> BagError:
+    """``path: no such bag file (did you mean '...'?) -- fix: check the path``: the error of a
+    bag path that does not exist, with the closest existing one
+    (:func:`rotor_avc.errors.path_suggestion`)."""
+    return BagError(path, f"no such {what}" + path_suggestion(path), fix="check the path")
 
 
 #: exit status of a command refusing a corrupted or inconsistent bag

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import BagError, CorruptBagError
+from .errors import CorruptBagError, no_such_bag
 from .integrity_pass import _Pass
 from .integrity_report import (PROBLEMS_KEPT, RESENDS_ALLOWED, IntegrityReport, Problem,
                                TopicData)
@@ -53,6 +53,6 @@ def scan_bag(path) -> IntegrityReport:
     """The integrity report of the ``.mcap`` file ``path`` (see the module docstring)."""
     path = Path(path)
     if not path.is_file():
-        raise BagError(path, "no such bag file", fix="check the path")
+        raise no_such_bag(path)
     with open(path, "rb") as f:
         return _Pass(path, f).run()

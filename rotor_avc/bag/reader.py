@@ -30,7 +30,7 @@ from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
 
 from .cdr import CdrCodec, CdrError
-from .errors import BagError
+from .errors import BagError, no_such_bag
 from .integrity import verify
 from .lockstep import LockstepRecord, read_lockstep
 from .mcap_writer import MAGIC, MESSAGE_HEADER
@@ -101,7 +101,7 @@ class BagReader:
 
     def _open_checked(self):
         if not self.path.is_file():
-            raise BagError(self.path, "no such bag file", fix="check the path")
+            raise no_such_bag(self.path)
         size = self.path.stat().st_size
         if size == 0:
             raise BagError(self.path, "empty file (0 bytes)",

@@ -30,7 +30,7 @@ from mcap.records import Channel, Metadata, Schema, Statistics
 
 from ..output_files import writing
 from . import records as R
-from .errors import BagError
+from .errors import BagError, no_such_bag
 from .schema_check import hash_problem, standard_text_problem
 from .mcap_writer import MAGIC, McapSink
 from .msgdefs import full_text
@@ -64,7 +64,7 @@ def recover_bag(source, target=None, *, compression: str = "zstd") -> Recovery:
     source = Path(source)
     target = Path(target) if target is not None else source.with_suffix(".recovered.mcap")
     if not source.is_file():
-        raise BagError(source, "no such bag file", fix="check the path")
+        raise no_such_bag(source)
     if target.exists() and target.resolve() == source.resolve():
         raise BagError(target, "the recovered bag must be a new file", fix="give another name")
     if target.exists():

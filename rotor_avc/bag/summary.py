@@ -25,7 +25,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, ChunkIndex, MetadataIndex, Schema, Statistics
 
 from . import records as R
-from .errors import EXIT_CORRUPT, BagError
+from .errors import EXIT_CORRUPT, BagError, no_such_bag
 from .mcap_writer import MAGIC
 
 _FOOTER = struct.Struct("<BQQQI")            # opcode, length 20, summary start, offsets, CRC
@@ -109,7 +109,7 @@ def read_summary(path) -> BagSummary:
     """The :class:`BagSummary` of the ``.mcap`` file ``path`` (see the module docstring)."""
     path = Path(path)
     if not path.is_file():
-        raise BagError(path, "no such bag file", fix="check the path")
+        raise no_such_bag(path)
     size = path.stat().st_size
     with open(path, "rb") as f:
         if f.read(len(MAGIC)) != MAGIC:

@@ -36,7 +36,7 @@ from ..compare.checks import MIN_COHERENCE
 from ..compare.mapped_run import model_signals
 from ..config import load_yaml
 from ..section import Section
-from ..errors import ConfigError
+from ..errors import ConfigError, path_suggestion
 from ..settings import read_settings, setting
 from .targets import BandPoints, Target
 
@@ -89,6 +89,9 @@ def is_uff(path) -> bool:
 
 
 def _sets(path: Path) -> list[dict]:
+    if not path.is_file():
+        raise ConfigError(str(path), "no such UFF file" + path_suggestion(path),
+                          fix="check the path")
     import pyuff                                    # imported only to read such a file
     try:
         sets = pyuff.UFF(str(path)).read_sets()

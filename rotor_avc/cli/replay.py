@@ -5,8 +5,10 @@ files, rotor_avc.bag.rosbag2), e.g. a recording of a real machine whose driver t
 ``--remap`` renames to the controllers' inputs. It is checked first, without ROS (a truncated
 file, an unknown schema, an empty bag: one-line error, exit status 2; for a bag with this
 package's run configuration, samples missing on a sampled topic or published but not recorded:
-one verdict, exit status 3, rotor_avc.bag.sequence); rclpy is imported only then, so the rest
-of the command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
+one verdict, exit status 3, rotor_avc.bag.sequence), and so are the topics the command line
+names (``--topics``, ``--remap``, ``--wait-for``: a topic the bag does not hold is refused with
+the closest one, rotor_avc.nodes.replay_topics); rclpy is imported only then, so the rest of the
+command line works without ROS. With ``--check TOL`` the answers the graph gives (e.g. a
 foot controller re-driven with the recorded foot accelerations) are compared with the recorded
 answers of the same stamps, and the exit status is 1 when any differs by more than TOL, or when
 the bag says its run was not lockstep (rotor_avc.bag.lockstep: the plant stepped without some
@@ -33,6 +35,7 @@ from ..bag.rosbag2 import open_bag
 from ..bag.sequence import require_complete
 from ..compare.answer_config import BagAnswers, NodeCheck
 from ..errors import RotorAvcError
+from ..nodes.replay_topics import select_topics
 from ..studies.progress import Progress
 from .common import nonnegative_float
 
@@ -115,6 +118,7 @@ def run(args) -> int:
             print("note: the bag carries no rotor_avc run configuration (a recording of another "
                   "source): its sample sequence and the answering nodes' configuration are not "
                   "checked")
+        select_topics(reader, args.topics, dict(args.remap), [a for a, _ in args.wait_for])
         try:
             from ..nodes import replay as R          # rclpy: imported only here
             from ..nodes.replay_check import compare_answers

@@ -4,8 +4,9 @@ The nodes ``ros2 launch rotor_avc rotor_avc.launch.py`` would start (rotor_avc.n
 each in its own process (``--composed``: all in one process and one executor), the plant in
 lockstep with the recorder (``--realtime``: sample by sample at the wall clock); progress with the
 time left, then the messages published and recorded per topic (a run that lost any is an error).
-``--list-params`` prints the parameters of every node of the scenario's graph instead: the value
-the run gives it (or its default), its type, bounds and meaning.
+``--list-params`` prints the parameters of every node of the scenario's graph instead (``NODE``
+after it: of that node only; a name the graph does not have is refused with the closest one):
+the value the run gives it (or its default), its type, bounds and meaning.
 """
 from __future__ import annotations
 
@@ -14,15 +15,16 @@ import sys
 import time
 from pathlib import Path
 
-from ..errors import RotorAvcError
+from ..errors import ConfigError, RotorAvcError, did_you_mean
 from ..scenario import load_scenario
 from ..studies.progress import Progress
 
 NAME = "run"
 HELP = ("Run a scenario as a ROS graph (one process per node, or --composed), recorded to a bag, "
-        "with progress and the per-topic counts; --list-params: every node's parameters.")
+        "with progress and the per-topic counts; --list-params [NODE]: every node's (that node's) "
+        "parameters.")
 EXAMPLE = ("rotor-avc run scenario_case3_stepped --composed --bag out/run/case3.mcap\n"
-           "  rotor-avc run scenario_case3_stepped --list-params")
+           "  rotor-avc run scenario_case3_stepped --list-params foot_controller_DL")
 
 
 def add_arguments(p) -> None:
@@ -35,16 +37,17 @@ def add_arguments(p) -> None:
                    help="all nodes in one process and one executor (several times faster)")
     p.add_argument("--realtime", action="store_true",
                    help="the plant steps at the wall clock instead of in lockstep")
-    p.add_argument("--list-params", action="store_true",
-                   help="print each node's parameters for this scenario and exit")
+    p.add_argument("--list-params", nargs="?", const="", default=None, metavar="NODE",
+                   help="print each node's parameters for this scenario (NODE: only that "
+                        "node's, e.g. foot_controller_DL) and exit")
 
 
 def run(args) -> int:
     scenario = load_scenario(args.scenario)
     stem = Path(str(scenario.machine.config.source)).stem
     bag = args.bag or Path("bags") / f"{stem}_{time.strftime('%Y%m%d_%H%M%S')}.mcap"
-    if args.list_params:
-        print_parameters(scenario, bag)
+    if args.list_params is not None:
+        print_parameters(scenario, bag, args.list_params)
         return 0
     logs = args.logs or bag.with_name(bag.stem + "_logs")
     record_graph(args.scenario, bag, logs, "composed" if args.composed else "processes",
@@ -97,12 +100,20 @@ class _SampleProgress:
             self.bar.close()
 
 
-def print_parameters(scenario, bag: Path) -> None:
-    """Every node of the scenario's graph with its declared parameters (rclpy needed: the
-    tables live in the node modules)."""
+def print_parameters(scenario, bag: Path, node: str = "") -> None:
+    """Every node of the scenario's graph (``node``: that one only) with its declared parameters
+    (rclpy needed: the tables live in the node modules; an unknown ``node`` is refused first)."""
     import importlib
     from ..nodes.graph_nodes import graph_nodes
-    for spec in graph_nodes(scenario, bag):
+    specs = graph_nodes(scenario, bag)
+    names = [spec.name for spec in specs]
+    if node and node not in names:
+        raise ConfigError("--list-params", f"no node {node!r} in this scenario's graph"
+                          + did_you_mean(node, names),
+                          fix="give one of " + ", ".join(names))
+    for spec in specs:
+        if node and spec.name != node:
+            continue
         try:
             params = importlib.import_module(f"rotor_avc.nodes.{spec.executable}").PARAMS
         except ImportError as exc:

@@ -29,6 +29,11 @@ def add_arguments(p) -> None:
                         "file is replaced when the new run is complete")
     p.add_argument("--progress", action="store_true", default=None,
                    help="show a progress bar on stderr (default: on long runs in a terminal)")
+    p.add_argument("--per-sample", action="store_true",
+                   help="step every block on its own per-sample path, as the ROS graph does: "
+                        "a bag whose messages equal a lockstep graph run's byte for byte "
+                        "(default: plant and linear controllers fused where they run linearly, "
+                        "the same numbers to rounding, about 3x faster)")
 
 
 def run(args) -> int:
@@ -67,7 +72,8 @@ def _simulate(args, scenario, check, interrupted) -> int:
     with writing(args.out) as partial:
         with np.errstate(over="ignore", invalid="ignore"):
             blocks = watched(scenario.run_blocks(args.progress, stop=interrupted,
-                                                 controllers=controllers), partial)
+                                                 controllers=controllers,
+                                                 fast_path=not args.per_sample), partial)
             n, peaks, units = _summary(
                 stream_run_bag(partial, scenario, blocks) if args.out.suffix == ".mcap"
                 else save_blocks(partial, blocks, scenario.n_steps))

@@ -41,7 +41,7 @@ from ..analysis.one_x_noise import decidable
 from ..bag import BagError
 from ..bag.rosbag2 import open_bag
 from ..config import find_config, load_yaml
-from ..errors import ConfigError, ModelError
+from ..errors import ConfigError, ModelError, did_you_mean
 from ..machine import machine_from_config
 from ..resources import FLOAT_BYTES, check_memory
 from .checks import MIN_COHERENCE, TOL_OFF_RESONANCE_DB
@@ -106,7 +106,8 @@ def field_values(series, sig, where: str, source: str) -> tuple[np.ndarray, np.n
 
 def require_topic(bag, topic: str, where: str, source: str) -> None:
     if topic not in bag.topics:
-        raise ConfigError(f"{where}.topic", f"no topic {topic} in {bag.path}",
+        raise ConfigError(f"{where}.topic", f"no topic {topic} in {bag.path}"
+                          + did_you_mean(topic, bag.topics),
                           fix="use one of " + ", ".join(sorted(bag.topics)), source=source)
 
 

@@ -63,14 +63,13 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..bag.reader import BagReader
 from ..block_kinds import KINDS
-from ..errors import RotorAvcError
 from . import messages as m
 from . import taps
 from .replay_config import read_answer_configs
 from .replay_timing import LATE_S, Schedule, read_ahead
+from .replay_topics import ReplayError, select_topics
 from .runtime import make_executor, spin_until
 
-_NAME = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
 #: after our side matched: time for the other sides to match us too (DDS matches each side on
 #: its own; a message sent before the subscriber's side matched is not delivered to it)
 SETTLE_S = 0.2
@@ -85,10 +84,6 @@ RESEND_AFTER_S = 0.25
 TIMED_WINDOW = 1000
 #: timed: messages a reader thread keeps read ahead of the schedule (more than one bag chunk)
 READ_AHEAD = 4096
-
-
-class ReplayError(RotorAvcError):
-    """Replay cannot go on as asked: the message names the topic and the fix."""
 
 
 @dataclass(frozen=True)
@@ -132,35 +127,12 @@ class ReplayPlan:
 
 
 def plan_replay(reader: BagReader, topics=None, remap=None, rules=DEFAULT_RULES) -> ReplayPlan:
-    """Check the selection against the bag and the installed message types (ReplayError or
-    BagError naming the topic and the fix)."""
+    """Check the selection against the bag (rotor_avc.nodes.replay_topics.select_topics) and
+    the installed message types (ReplayError or BagError naming the topic and the fix)."""
     path = str(reader.path)
-    info = reader.topics
-    remap = dict(remap or {})
-    selected = list(dict.fromkeys(topics)) if topics else [t for t, i in info.items() if i.count]
-    unknown = [t for t in selected + list(remap) if t not in info]
-    if unknown:
-        raise ReplayError(f"{path}: no topic {', '.join(unknown)} in the bag -- fix: use one of "
-                          + ", ".join(sorted(info)))
-    stray = [t for t in remap if t not in selected]
-    if stray:
-        raise ReplayError(f"{path}: --remap names {', '.join(stray)}, which is not replayed -- "
-                          "fix: add it to --topics or drop the remap")
-    bad = [name for name in remap.values() if not _NAME.fullmatch(name)]
-    if bad:
-        raise ReplayError(f"remap target {bad[0]!r} is not an absolute topic name -- fix: e.g. "
-                          "/avc_replay/foot/DL/acceleration")
-    empty = [t for t in selected if info[t].count == 0]
-    if empty:
-        raise ReplayError(f"{path}: topic {empty[0]} holds no messages -- fix: select topics "
-                          "with messages (see `--topics`)")
-    published = {t: remap.get(t, t) for t in selected}
-    if len(set(published.values())) != len(published):
-        raise ReplayError("two replayed topics would be published under one name -- fix: "
-                          "remap them to distinct names")
-    for t in selected:
-        reader.codec(t)            # BagError for a schema that cannot be decoded (unknown)
-    classes = {t: _import_class(info[t].msg_type, f"{path}: topic {t}") for t in selected}
+    published = select_topics(reader, topics, remap)
+    classes = {t: _import_class(reader.topics[t].msg_type, f"{path}: topic {t}")
+               for t in published}
     answers = {}
     for bag_topic, topic in published.items():
         for rule in rules:

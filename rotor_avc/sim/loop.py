@@ -15,6 +15,10 @@ to keep it; the stepper applies it from the next step on), the feed-forward gene
 (:class:`~rotor_avc.blocks.Synchronous`) and the adaptive harmonic controller
 (:class:`~rotor_avc.blocks.Harmonic`: its sensor signals, the shaft angle and speed -> forces
 added to the feedback forces).
+
+While every controller runs linearly at one speed node, :class:`~rotor_avc.sim.fused.FusedLoop`
+does the samples in one matrix product each (the same numbers to rounding; anything else --
+limits acting, rejected measurements, other blocks -- goes through the per-sample path below).
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ from ..blocks import Balancer, Harmonic, LoopSample, Synchronous
 from ..errors import ModelError
 from ..resources import FLOAT_BYTES, check_memory
 from ..settings import INITIAL_STATES
+from .fused import FusedLoop, fusable
 from .steady_state import start_in_steady_state
 from .stepper import PlantStepper
 from .timeseries import TimeSeries
@@ -193,7 +198,8 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
                block_steps: int = BLOCK_STEPS, balancer: Balancer | None = None,
                feedforward: Synchronous | None = None, harmonic: Harmonic | None = None,
                initial_state: str = "rest", progress: bool | None = None,
-               metadata: dict | None = None, stop=lambda: False) -> Iterator[TimeSeries]:
+               metadata: dict | None = None, stop=lambda: False,
+               fast_path: bool = True) -> Iterator[TimeSeries]:
     """Run ``n_steps`` samples of the lockstep loop from ``t = 0``, yielding the time series in
     blocks of ``block_steps`` samples (memory independent of ``n_steps``).
 
@@ -203,7 +209,9 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
     ``harmonic``: an adaptive harmonic controller block (rotor_avc.harmonic.block) whose forces
     add to those of the feedback controllers (:func:`harmonic_forces`).
     ``progress``: True/False, or None for "when stderr is a terminal and the run is long".
-    ``stop``: called after each block; True ends the run there (e.g. on Ctrl-C)."""
+    ``stop``: called after each block; True ends the run there (e.g. on Ctrl-C).
+    ``fast_path``: False steps every block on its own per-sample path (what the ROS graph
+    does, message for message) even where :mod:`rotor_avc.sim.fused` could run."""
     if not isinstance(n_steps, int) or n_steps < 1:
         raise ModelError(f"the run needs at least one sample (got n_steps = {n_steps!r})")
     plan = control_plan(stepper, controllers)
@@ -217,6 +225,8 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         progress = sys.stderr.isatty() and n_steps >= 50_000
     bar = Progress(n_steps, stepper.T, progress)
     y = start(stepper, controllers, initial_state, balancer)
+    fast = (FusedLoop(stepper, plan) if fast_path and feedforward is None and harmonic is None
+            and balancer is None and fusable(controllers.values()) else None)
     zero = [0.0] * stepper.n_inputs     # u_k: a list, element writes cost a tenth of an array's
     step = stepper.step
     for k0 in range(0, n_steps, block_steps):
@@ -224,11 +234,21 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         Y = np.empty((n, y.size))
         U = np.empty((n, stepper.n_inputs))
         C = np.zeros((n, len(stepper.plant.excitations)), complex) if balancer else None
-        for j in range(n):
+        j = 0
+        while j < n:
+            if fast is not None and fast.pending:        # done on the fast path
+                j += fast.emit(Y, U, j, n)
+                continue
             k = k0 + j
-            Y[j] = y
             u = zero.copy()
             controller_forces(plan, y, u)
+            if fast is not None:
+                done, y = fast.run(y, u, Y, U, j, n, n_steps - k)
+                if done:
+                    j += done
+                    bar.update(k0 + j)
+                    continue
+            Y[j] = y
             if feedforward is not None:
                 speed, _, angle = stepper.speed_state()
                 for pos, f in zip(ff_pos, feedforward.step(angle, speed)):
@@ -240,6 +260,7 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
                 balancer_update(stepper, balancer, k, y)
                 C[j] = list(stepper.correction.values())
             y = step(u)
+            j += 1
             if not k & 0x3FFF:
                 bar.update(k)
         meta = dict(metadata or {})

@@ -218,6 +218,8 @@ class PropagatorTable:
         self.BIG: list[np.ndarray | None] = [None] * self.nodes.size
         self.Rx: list[np.ndarray | None] = [None] * self.nodes.size
         self.dRx: list[np.ndarray | None] = [None] * self.nodes.size     # Rx[i+1] - Rx[i]
+        #: the run setup its nodes were placed for (set by rotor_avc.sim.stepper.PlantStepper)
+        self.grid: tuple | None = None
 
     # -- exact matrices at one speed ---------------------------------------------------------
     def _continuous(self, speed: float):

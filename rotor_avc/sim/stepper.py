@@ -103,7 +103,7 @@ class PlantStepper:
     def __init__(self, plant: LinearPlant, sample_period_s: float, profile: SpeedProfile,
                  amplitudes: Mapping[str, complex] | None = None,
                  damping: DampingRule = DampingRule(), grid_tol: float = DEFAULT_GRID_TOL,
-                 test_force: BroadbandForce | None = None):
+                 test_force: BroadbandForce | None = None, table: PropagatorTable | None = None):
         T = float(sample_period_s)
         if not (np.isfinite(T) and T > 0):
             raise ModelError(f"sample period must be > 0 (got {sample_period_s})")
@@ -112,11 +112,20 @@ class PlantStepper:
         self.profile = profile
         self.damping = damping
         self.layout = MeasurementLayout(plant)
-        nodes = speed_nodes(plant, damping, profile.min_speed_rad_s, profile.max_speed_rad_s,
-                            profile.held_speeds(), grid_tol,
-                            max_node_spacing(plant, T, grid_tol))
-        self.table = PropagatorTable(plant, T, damping, nodes, self.layout.rows,
-                                     self.layout.orders)
+        grid = (T, damping, profile.min_speed_rad_s, profile.max_speed_rad_s,
+                tuple(profile.held_speeds()), grid_tol)
+        if table is not None and (table.plant is not plant or table.grid != grid):
+            raise ModelError("a propagator table is reused only by a stepper of the same plant, "
+                             "sample period, damping rule, speed range, held speeds and grid_tol")
+        if table is None:
+            nodes = speed_nodes(plant, damping, profile.min_speed_rad_s, profile.max_speed_rad_s,
+                                profile.held_speeds(), grid_tol,
+                                max_node_spacing(plant, T, grid_tol))
+            table = PropagatorTable(plant, T, damping, nodes, self.layout.rows,
+                                    self.layout.orders)
+            table.grid = grid
+        #: the speed grid and its matrices (pass it to the next stepper of the same run setup)
+        self.table = table
         lay = self.table.layout
         self._lay = lay
         self._N = 2 * plant.n
@@ -218,7 +227,9 @@ class PlantStepper:
         tab.ensure(np.concatenate([i_mid, i_mid[w_mid > 0] + 1]), j_cor[c_cor != 0])
         self._i_mid, self._w_mid = i_mid.tolist(), w_mid.tolist()
         self._j_cor, self._c_cor = j_cor.tolist(), c_cor.tolist()
-        self._moving = ((w_mid != 0) | (c_cor != 0)).tolist()
+        moving = (w_mid != 0) | (c_cor != 0)
+        self._moving = moving.tolist()
+        self._node_or_moving = np.where(moving, -1, i_mid)      # -1: between nodes
         if self.test_force is not None:
             self._d = self.test_force.values(k0, CHUNK).tolist()
         self._k0, self._n_chunk = k0, CHUNK
@@ -284,6 +295,39 @@ class PlantStepper:
         if c:
             out[N:] += c * tab.dRx[self._j_cor[j]].dot(out[:N])
         return out
+
+    # -- steps taken outside (rotor_avc.sim.fused) ----------------------------------------------
+    @property
+    def excitation_width(self) -> int:
+        """Floats of the excitation columns ``[w_mid,k | w_meas,k+1]`` of one step."""
+        return self._lay.size - self._lay.w.start
+
+    def steady_steps(self, limit: int):
+        """``(node, count, W)``: the next ``count <= limit`` steps all on speed node ``node``
+        (none between nodes), inside the precomputed chunk, with its amplitudes and without a
+        test force; ``W`` their excitation columns. None when the next step is not such a one."""
+        if self.test_force is not None:
+            return None
+        j = self.k - self._k0
+        if j >= self._n_chunk:
+            self._fill(self.k)
+            j = 0
+        node = self._i_mid[j]
+        if self._W is None or self._moving[j]:
+            return None
+        ahead = self._node_or_moving[j:min(self._n_chunk, j + limit)]
+        other = np.flatnonzero(ahead != node)
+        count = int(other[0]) if other.size else ahead.size
+        return node, count, self._W[j:j + count]
+
+    def advance_to(self, steps: int, x, forces_held, y) -> np.ndarray:
+        """Take ``steps`` steps computed outside: the state ``x`` and measurement ``y`` they
+        reach and the forces held over the last of them. -> ``y`` (a new array)"""
+        self._v[self._lay.x] = x
+        self._v[self._u_slice] = forces_held
+        self.k += steps
+        self._y = y.copy()
+        return self._y
 
     # -- inspection ---------------------------------------------------------------------------
     @property
