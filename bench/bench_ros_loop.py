@@ -19,7 +19,12 @@ best of ``--repeats`` runs, the graphs measured in turn so that load hits them a
 * **loop + DDS recorder** -- the recorder subscribed through DDS in the same process (each
   message one more DDS delivery and executor callback: why the composed graph taps instead);
 * **processes + recorder** -- each node its own process (rotor_avc.nodes.graph, the ``ros2 run``
-  layout): bounded by the cross-process round trip above.
+  layout), against two floors measured in the same run: the 2-process ping-pong and the
+  **transport floor of the processes layout** -- the layout's message pattern alone (per sample
+  six raw messages of the plant's types and sizes from one process to three answering processes
+  and a recording one, which do nothing else; then the three answers), with and without the
+  recording process. Each sample wakes five processes on this 2-core machine, so that floor is a
+  fraction of one ping-pong; the nodes' own Python is what lies between it and the layout.
 
 **Real time** -- ``mode: realtime`` at 1, 2 and 5 kHz, composed graph with the recorder, 2 s per
 rate: the mean period against the nominal one (absolute schedule: no drift), the lateness of
@@ -184,6 +189,96 @@ def ping_pong_processes(rounds: int) -> float:
         proc.wait()
 
 
+FAN = """
+import rclpy, sys
+from geometry_msgs.msg import AccelStamped, WrenchStamped
+from rclpy.serialization import serialize_message
+from rotor_avc.nodes import messages as m
+from rotor_avc.nodes.runtime import make_executor
+rclpy.init()
+role = sys.argv[1]
+node = rclpy.create_node("bench_fan_" + role)
+if role == "sink":                      # a recorder that only takes: every topic, raw
+    for name, kind in TOPICS:
+        node.create_subscription(kind, "/bench/fan/" + name, lambda d: None, m.LOCKSTEP_QOS,
+                                 raw=True)
+else:                                   # a controller: one answer per measurement
+    back = node.create_publisher(WrenchStamped, "/bench/fan/force_" + role, m.LOCKSTEP_QOS)
+    data = serialize_message(WrenchStamped())
+    node.create_subscription(AccelStamped, "/bench/fan/foot_" + role,
+                             lambda d: back.publish(data), m.LOCKSTEP_QOS, raw=True)
+ex = make_executor("events")
+ex.add_node(node)
+while sys.stdin.readable() and rclpy.ok():
+    ex.spin_once(timeout_sec=0.1)
+"""
+
+
+def fan_topics():
+    """The processes layout's message pattern per sample: the plant's six messages (three foot
+    measurements, joint state, clock, observables) and the three controllers' answers."""
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    return ([(f"foot_{f}", AccelStamped) for f in FEET]
+            + [("joint", JointState), ("clock", Clock), ("observables", Float64MultiArray)]
+            + [(f"force_{f}", WrenchStamped) for f in FEET])
+
+
+def fan_floor(rounds: int, recorder: bool = True) -> float:
+    """Samples per second of the processes layout's transport alone: this process publishes
+    each sample's six messages (raw, the plant's sizes) to three answering processes and a
+    recording one (``recorder``; raw subscriptions, no work) and waits for the three answers --
+    the floor of the layout's message pattern on this machine, without the nodes' Python."""
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    topics = fan_topics()
+    script = ("from rosgraph_msgs.msg import Clock\nfrom sensor_msgs.msg import JointState\n"
+              "from std_msgs.msg import Float64MultiArray\n"
+              "from geometry_msgs.msg import AccelStamped, WrenchStamped\n"
+              f"TOPICS = [{', '.join(f'({n!r}, {k.__name__})' for n, k in topics)}]\n" + FAN)
+    procs = [subprocess.Popen([sys.executable, "-c", script, role], stdin=subprocess.PIPE)
+             for role in (*FEET, "sink")[:len(FEET) + recorder]]
+    node = rclpy.create_node("bench_fan_plant")
+    joint = JointState(name=["rotor"], position=[0.0], velocity=[0.0])
+    obs = Float64MultiArray(data=[0.0] * 31)
+    payload = {"joint": joint, "clock": Clock(), "observables": obs}
+    pubs = [(node.create_publisher(kind, "/bench/fan/" + name, m.LOCKSTEP_QOS),
+             serialize_message(payload.get(name, kind())))
+            for name, kind in topics[:6]]
+    state = {"n": 0, "answers": 0}
+
+    def on_answer(_):
+        state["answers"] += 1
+        if state["answers"] == len(FEET):
+            state["answers"] = 0
+            state["n"] += 1
+            if state["n"] < rounds:
+                send()
+
+    def send():
+        for pub, data in pubs:
+            pub.publish(data)
+
+    for f in FEET:
+        node.create_subscription(WrenchStamped, f"/bench/fan/force_{f}", on_answer,
+                                 m.LOCKSTEP_QOS, raw=True)
+    ex = make_executor("events")
+    ex.add_node(node)
+    try:
+        return round_trips(ex, pubs[0][0], lambda: all(
+            node.count_publishers(f"/bench/fan/force_{f}") > 0 for f in FEET) and all(
+            p.get_subscription_count() >= recorder for p, _ in pubs), send, state, rounds)
+    finally:
+        ex.shutdown()
+        node.destroy_node()
+        for proc in procs:
+            proc.kill()
+            proc.wait()
+
+
 def run_in_process(nodes, plant, profile: bool = False) -> float:
     """Spin ``nodes`` in one events executor until the plant's run is complete; samples/s."""
     ex = make_executor("events")
@@ -286,6 +381,8 @@ def main():
             graphs = {
                 "ping-pong (1 process)": lambda i: ping_pong(args.steps),
                 "ping-pong (2 processes)": lambda i: ping_pong_processes(args.steps),
+                "transport floor of the processes layout": lambda i: fan_floor(args.steps),
+                "transport floor without the recorder": lambda i: fan_floor(args.steps, False),
                 "loop": lambda i: loop(sc),
                 "loop + recorder": lambda i: loop_recorded(sc, folder / f"r{i}.mcap",
                                                            args.profile and i == 0),
@@ -305,6 +402,11 @@ def main():
             print(f"{'graph':30s} {'per s':>9s} {'vs loop':>8s}")
             for name, rate in best.items():
                 print(f"{name:30s} {rate:9.0f} {rate / base:8.0%}")
+            proc, floor = best["processes + recorder"], best["transport floor of the processes layout"]
+            print(f"processes + recorder: {proc / best['ping-pong (2 processes)']:.2f} of the "
+                  f"2-process ping-pong, {proc / floor:.2f} of its layout's transport floor "
+                  f"(the floor itself {floor / best['ping-pong (2 processes)']:.2f} of the "
+                  "ping-pong)")
             rec = best["loop + recorder"]
             print(f"goal: loop + recorder >= 5000 samples/s ({rec:.0f}) and >= 75 % of the loop "
                   f"({rec / base:.0%})")
