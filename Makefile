@@ -40,8 +40,9 @@ test: setup-test
 test-full: setup-test
 	$(PY) -m pytest -q --full
 
+# the benchmarks; their headline figures go into README.md's Performance section
 bench: setup-test
-	$(PY) bench/run_all.py
+	$(PY) bench/run_all.py --readme
 
 # mutation check of the modules in tools/mutation_targets.toml (slow; not part of `make test`)
 MUTATION_JOBS ?= 2

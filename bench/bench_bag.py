@@ -9,17 +9,22 @@ to CDR -- written by
 * ours, ``BagWriter.write_raw`` (the recorder node's path), message by message;
 * ours, ``BagWriter.write_streams`` from the arrays (the simulator's path; CDR encoding included).
 
-Prints messages/s and the ratio to the baseline, and checks that our bags and the baseline's
-hold the same values. Run: ``python bench/bench_bag.py``.
+The arms run interleaved (A B C D A B C D ...), each figure the best of the repeats. Prints CPU
+and wall microseconds per message, messages/s (CPU), the ratio to the baseline (CPU) and the
+file sizes, and checks that our bags and the baseline's hold the same values.
+
+Run: ``python bench/bench_bag.py [--seconds 2] [--repeats 3]``.
 """
 from __future__ import annotations
 
+import argparse
+import shutil
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
+from timing import interleaved, load_line, result
 from rotor_avc.bag import BagReader, BagWriter, topics as T, write_bag
 
 FS = 5000.0
@@ -27,17 +32,21 @@ DURATION_S = 2.0
 CONFIG = {"machine": {"model": "foot_mount_3d"}}
 
 
-def make_streams():
-    rng = np.random.default_rng(0)
-    t = np.arange(int(FS * DURATION_S)) / FS
+def streams(t: np.ndarray, rng) -> list:
+    """The topic set at the times ``t`` (s), random values from ``rng``."""
     speed = np.full(t.size, 2 * np.pi * 50)
-    streams = [T.clock(t), T.joint_state(t, speed * t, speed)]
+    out = [T.clock(t), T.joint_state(t, speed * t, speed)]
     for foot in T.FOOT_IDS:
-        streams.append(T.foot_acceleration(foot, t, rng.standard_normal(t.size)))
-        streams.append(T.actuator_force(foot, t, rng.standard_normal(t.size)))
-    streams.append(T.labelled_array("plant/observables", t, [f"q{i}" for i in range(9)],
-                                    rng.standard_normal((t.size, 9))))
-    return streams
+        out.append(T.foot_acceleration(foot, t, rng.standard_normal(t.size)))
+        out.append(T.actuator_force(foot, t, rng.standard_normal(t.size)))
+    out.append(T.labelled_array("plant/observables", t, [f"q{i}" for i in range(9)],
+                                rng.standard_normal((t.size, 9))))
+    return out
+
+
+def make_streams(duration_s: float = DURATION_S) -> list:
+    """``duration_s`` of the topic set at FS."""
+    return streams(np.arange(int(FS * duration_s)) / FS, np.random.default_rng(0))
 
 
 def serialised_messages(streams, folder):
@@ -53,6 +62,7 @@ def rosbags_writer(messages, folder):
     from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
     from rosbags.typesys import Stores, get_typestore
     store = get_typestore(Stores.ROS2_JAZZY)
+    shutil.rmtree(folder / "rosbags_bag", ignore_errors=True)     # the writer refuses to overwrite
     w = Writer(folder / "rosbags_bag", version=9, storage_plugin=StoragePlugin.MCAP)
     w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)     # zstd chunks
     with w:
@@ -85,42 +95,51 @@ def mcap_writer(messages, folder):
 
 def ours_raw(messages, folder):
     path = folder / "ours_raw.mcap"
-    with BagWriter(path, CONFIG) as w:
+    with BagWriter(path, CONFIG, overwrite=True) as w:
         for topic, _, t_ns, data in messages:
             w.write_raw(topic, data, t_ns)
     return path
 
 
-def timed(fn, *args):
-    t0 = time.perf_counter()
-    out = fn(*args)
-    return out, time.perf_counter() - t0
-
-
 def main() -> None:
-    streams = make_streams()
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seconds", type=float, default=DURATION_S, help="recorded seconds at 5 kHz")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved rounds (best of)")
+    args = ap.parse_args()
+    run_streams = make_streams(args.seconds)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        messages = serialised_messages(streams, folder)
+        messages = serialised_messages(run_streams, folder)
         n = len(messages)
-        runs = {}
-        runs["rosbags Writer (baseline)"] = timed(rosbags_writer, messages, folder)
-        runs["mcap Writer"] = timed(mcap_writer, messages, folder)
-        runs["ours: write_raw"] = timed(ours_raw, messages, folder)
-        runs["ours: write_streams"] = timed(write_bag, folder / "ours_streams.mcap", streams,
-                                            CONFIG)
-        base = runs["rosbags Writer (baseline)"][1]
-        print(f"{n} messages ({len(streams)} topics, {DURATION_S:g} s at {FS:g} Hz), same run")
-        print(f"{'writer':28} {'messages/s':>12} {'ratio':>7} {'MB':>6}")
-        for name, (path, dt) in runs.items():
-            size = Path(path).stat().st_size / 1e6
-            print(f"{name:28} {n / dt:12,.0f} {base / dt:6.1f}x {size:6.1f}")
-        reference = runs["rosbags Writer (baseline)"][0]
+        paths = {}
+        writers = {
+            "rosbags Writer (baseline)": lambda: rosbags_writer(messages, folder),
+            "mcap Writer": lambda: mcap_writer(messages, folder),
+            "ours: write_raw": lambda: ours_raw(messages, folder),
+            "ours: write_streams": lambda: write_bag(folder / "ours_streams.mcap", run_streams,
+                                                     CONFIG, overwrite=True)}
+        best = interleaved({name: (lambda name=name: paths.__setitem__(name, writers[name]()))
+                            for name in writers}, args.repeats)
+        base = best["rosbags Writer (baseline)"][0]
+        print(f"{n} messages ({len(run_streams)} topics, {args.seconds:g} s at {FS:g} Hz), best "
+              f"of {args.repeats} interleaved rounds; {load_line()}")
+        print(f"{'writer':28} {'CPU us/msg':>10} {'wall us/msg':>11} {'messages/s':>12} "
+              f"{'ratio':>7} {'MB':>6}")
+        for name, (cpu, wall) in best.items():
+            size = Path(paths[name]).stat().st_size / 1e6
+            print(f"{name:28} {cpu / n * 1e6:10.2f} {wall / n * 1e6:11.2f} {n / cpu:12,.0f} "
+                  f"{cpu / base:6.2f}x {size:6.1f}")
+        for name, what in (("ours: write_raw", "BagWriter.write_raw (the recorder's path)"),
+                           ("ours: write_streams", "BagWriter.write_streams (the simulator's)")):
+            cpu, wall = best[name]
+            result(what, cpu / n, wall / n, "message", "rosbags rosbag2 Writer (MCAP, zstd)",
+                   cpu / base)
+        reference = paths["rosbags Writer (baseline)"]
         topic = "/avc/foot/DL/acceleration"
         with BagReader(reference) as ref:
             want = ref.series(topic)["accel.linear.z"]
         for name in ("ours: write_raw", "ours: write_streams"):
-            with BagReader(runs[name][0]) as bag:
+            with BagReader(paths[name]) as bag:
                 assert bag.message_count == n
                 assert np.array_equal(bag.series(topic)["accel.linear.z"], want), name
         print("values: our bags equal the baseline's")

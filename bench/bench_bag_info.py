@@ -12,20 +12,25 @@ second of run), written by ``BagWriter`` in 1 MiB zstd chunks, are
 
 and their sample sequence is checked by ``check_sequence`` (chunk by chunk, from the message
 indexes) beside the same check holding every sampled topic's log times at once (the baseline:
-how it worked before). Prints wall and CPU time with ratios, and the peak traced memory of both
-sequence checks per recorded length. Run: ``python bench/bench_bag_info.py``.
+how it worked before). The integrity pass and ``bag info`` run interleaved, each figure the best
+of the repeats. Prints CPU and wall time with ratios (CPU), and the peak traced memory of both
+sequence checks per recorded length.
+
+Run: ``python bench/bench_bag_info.py [--durations 10 60 600] [--repeats 3]``.
 """
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
 import tempfile
-import time
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
 
+from bench_bag import streams
+from timing import interleaved, load_line, result
 from rotor_avc.bag import BagReader, BagWriter, topics as T
 from rotor_avc.bag.integrity import scan_bag
 from rotor_avc.bag.sequence import check_sequence
@@ -37,17 +42,6 @@ SEGMENT_S = 60.0
 CONFIG = {"machine": {"model": "foot_mount_3d"}, "discretisation": {"sample_rate_hz": FS}}
 
 
-def streams(t: np.ndarray, rng) -> list:
-    speed = np.full(t.size, 2 * np.pi * 50)
-    out = [T.clock(t), T.joint_state(t, speed * t, speed)]
-    for foot in T.FOOT_IDS:
-        out.append(T.foot_acceleration(foot, t, rng.standard_normal(t.size)))
-        out.append(T.actuator_force(foot, t, rng.standard_normal(t.size)))
-    out.append(T.labelled_array("plant/observables", t, [f"q{i}" for i in range(9)],
-                                rng.standard_normal((t.size, 9))))
-    return out
-
-
 def make_bag(path: Path, duration_s: float) -> Path:
     """The run written in segments of SEGMENT_S (the writer's input stays small)."""
     rng = np.random.default_rng(0)
@@ -56,16 +50,6 @@ def make_bag(path: Path, duration_s: float) -> Path:
         for k0 in range(0, n, int(FS * SEGMENT_S)):
             w.write_streams(streams(np.arange(k0, min(n, k0 + int(FS * SEGMENT_S))) / FS, rng))
     return path
-
-
-def timed(fn, repeat: int = 1) -> tuple[float, float]:
-    """Best (wall, CPU) seconds over ``repeat`` runs."""
-    best = (np.inf, np.inf)
-    for _ in range(repeat):
-        w0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        best = min(best, (time.perf_counter() - w0, time.process_time() - c0))
-    return best
 
 
 def info(path: Path) -> None:
@@ -92,12 +76,19 @@ def peak_mib(fn) -> float:
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--durations", type=float, nargs="+", default=list(DURATIONS_S),
+                    help="recorded seconds of each run")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved rounds (best of)")
+    args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         rows = []
-        for duration_s in DURATIONS_S:
+        for duration_s in args.durations:
             path = make_bag(Path(tmp) / f"run_{duration_s:g}.mcap", duration_s)
-            full = timed(lambda: scan_bag(path))
-            summary = timed(lambda: info(path), repeat=3)
+            info(path)                               # warm-up: the command's imports
+            best = interleaved({"full": lambda: scan_bag(path), "info": lambda: info(path)},
+                               args.repeats)
+            full, summary = best["full"], best["info"]
             with BagReader(path) as reader:
                 reader.config                        # parsed before the peaks
                 assert check_sequence(reader).ok and in_memory_sequence(reader) == 0
@@ -108,11 +99,12 @@ def main() -> None:
                          baseline, streamed))
             path.unlink()
         print(f"bag info: full integrity pass (baseline) vs from the summary; {FS:g} Hz, "
-              "11 topics")
-        print("  run s    MiB   messages | integrity wall/CPU s | info wall/CPU ms | ratio (wall)")
+              f"11 topics; best of {args.repeats} interleaved rounds; {load_line()}")
+        print("  run s    MiB   messages | integrity CPU/wall s | info CPU/wall ms | ratio (CPU)")
         for d, mib, msgs, full, summary, _, _ in rows:
             print(f"  {d:5g} {mib:6.1f} {msgs:10d} | {full[0]:8.2f} {full[1]:8.2f}    | "
-                  f"{summary[0] * 1e3:7.1f} {summary[1] * 1e3:7.1f} | {full[0] / summary[0]:8.0f}x")
+                  f"{summary[0] * 1e3:7.1f} {summary[1] * 1e3:7.1f} | "
+                  f"{summary[0] / full[0]:10.2g}x")
         print("sample-sequence check, peak traced memory: all log times at once (baseline) vs "
               "chunk by chunk")
         for d, _, _, _, _, baseline, streamed in rows:
@@ -121,7 +113,10 @@ def main() -> None:
         first, last = rows[0], rows[-1]
         print(f"  {last[0] / first[0]:g}x the run: baseline {last[5] / first[5]:.1f}x the peak, "
               f"streamed {last[6] / first[6]:.2f}x; info {last[4][0] / first[4][0]:.2f}x the "
-              f"time, integrity pass {last[3][0] / first[3][0]:.1f}x")
+              f"CPU time, integrity pass {last[3][0] / first[3][0]:.1f}x")
+        d, _, msgs, full, summary, _, _ = last
+        result(f"bag info from the summary, {d:g} s run ({msgs} messages)", *summary, "call",
+               "full integrity pass", summary[0] / full[0])
 
 
 if __name__ == "__main__":

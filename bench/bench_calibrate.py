@@ -11,16 +11,18 @@ parameters, each the whole of :func:`rotor_avc.calibration.fit.calibrate` (scree
 trust-region fit, Jacobian at the optimum), serial; on 2 workers as the study engine schedules
 them (it measures the cost per column here and sends work to the workers only when a task is
 worth about 0.1 s); and with every column sent to a worker (``batch_size=1``). Baseline, same
-run: one model evaluation at the configured values (the unit of work: the serial fit's wall time
-over it, against its evaluations, is the engine's overhead) and the serial fit (the ratios);
-every parallel result is checked bit for bit against the serial one (exit 1 on a difference).
-Wall and CPU time (this process and its finished children) side by side; the fastest of
-``--repeats`` runs counts (the machine is shared). Measured here: a fit takes 0.2 to 1 s (16 to
-100 evaluations); at 10 to 30 ms per evaluation the engine keeps the columns in this process
-(ratio 0.8 to 1.0) and forcing them onto workers costs 1.0 to 1.6 times the serial time: the
-workers pay off for models of about 0.1 s per evaluation and more, or many starts.
+run, the arms interleaved (A B C D A B C D ...): one model evaluation at the configured values
+(the unit of work: the serial fit's CPU time over it, against its evaluations, is the engine's
+overhead) and the serial fit (the ratios); every parallel result is checked bit for bit against
+the serial one (exit 1 on a difference). CPU time (this process and its finished children: the
+workers) beside wall time, each the best of ``--repeats`` rounds (the machine is shared).
+Measured here: a fit takes 0.2 to 1 s (16 to 100 evaluations); at 10 to 30 ms per evaluation the
+engine keeps the columns in this process (wall ratio 0.8 to 1.0) and forcing them onto workers
+costs 1.0 to 1.6 times the serial time: the workers pay off for models of about 0.1 s per
+evaluation and more, or many starts.
 
-Run: ``python bench/bench_calibrate.py [--repeats 3]``.
+Run: ``python bench/bench_calibrate.py [--repeats 3] [--machines NAME ...] [--speeds 4 8]
+[--params 4] [--dwell-s 2]``.
 """
 import os
 
@@ -29,14 +31,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import copy  # noqa: E402
-import resource  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from timing import interleaved, load_line, result  # noqa: E402
 from rotor_avc.calibration.fit import calibrate  # noqa: E402
 from rotor_avc.calibration.parameters import parameters  # noqa: E402
 from rotor_avc.calibration.problem import Problem  # noqa: E402
@@ -67,18 +68,13 @@ MACHINES = {
 }
 
 
-def cpu_s() -> float:
-    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
-                                                  resource.getrusage(resource.RUSAGE_CHILDREN)))
-
-
 def machine(name: str) -> dict:
     data = load_yaml(find_config(name))
     data.pop("simulation", None)
     return data
 
 
-def recording(folder: Path, name: str, speeds) -> Path:
+def recording(folder: Path, name: str, speeds, dwell_s: float) -> Path:
     truth = copy.deepcopy(machine(name))
     for path, change in MACHINES[name][0].items():
         *keys, last = path.split(".")
@@ -89,7 +85,7 @@ def recording(folder: Path, name: str, speeds) -> Path:
     sc = scenario_from_config({**truth, "simulation": {
         "sample_rate_hz": 5000.0, "initial_state": "steady_state",
         "unbalance": MACHINES[name][3],
-        "speed": {"type": "stepped", "speeds_hz": speeds, "dwell_s": 2.0,
+        "speed": {"type": "stepped", "speeds_hz": speeds, "dwell_s": dwell_s,
                   "transition_s": 0.3}}}, "truth")
     path = folder / f"{name}_{len(speeds)}.mcap"
     write_run_bag(path, sc, sc.run(progress=False))
@@ -104,47 +100,61 @@ def problem(name: str, bag: Path, n_params: int) -> Problem:
                    [target_of(comp, bag.name)])
 
 
-def timed(fn, repeats: int):
-    best = None
-    for _ in range(repeats):
-        w0, c0 = time.perf_counter(), cpu_s()
-        out = fn()
-        row = (time.perf_counter() - w0, cpu_s() - c0, out)
-        best = row if best is None or row[0] < best[0] else best
-    return best
+def bench(prob: Problem, repeats: int) -> tuple[dict, dict]:
+    """``(best {arm: (cpu_s, wall_s)}, {arm: its last result})`` of one evaluation, the serial
+    fit, the fit as the engine schedules it on 2 workers and with every column on a worker."""
+    z0 = prob.initial / prob.reference
+    jobs = {"one": lambda: prob.scaled_residual(z0),
+            "serial": lambda: calibrate(prob, SerialBackend()),
+            "engine": lambda: calibrate(prob, ProcessBackend(2)),
+            "columns": lambda: calibrate(prob, ProcessBackend(2), batch_size=1)}
+    out = {}
+    best = interleaved({arm: (lambda arm=arm: out.__setitem__(arm, jobs[arm]())) for arm in jobs},
+                       repeats)
+    return best, out
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved rounds (best of)")
+    ap.add_argument("--machines", nargs="+", choices=list(MACHINES), default=list(MACHINES))
+    ap.add_argument("--speeds", type=int, nargs="+", choices=[4, 8], default=[4, 8],
+                    help="stepped speeds of the recordings")
+    ap.add_argument("--params", type=int, choices=[1, 2, 3, 4], default=4,
+                    help="fit 1 to this many parameters")
+    ap.add_argument("--dwell-s", type=float, default=2.0, help="the recordings' dwell per speed")
     args = ap.parse_args()
     status = 0
+    print(f"best of {args.repeats} interleaved rounds; {load_line()}")
     with tempfile.TemporaryDirectory() as tmp:
         print(f"{'machine':>30} {'points':>6} {'params':>6} {'eval ms':>8} {'evals':>6} "
               f"{'serial s':>9} {'cpu s':>6} {'engine s':>9} {'cpu s':>6} {'ratio':>6} "
               f"{'columns s':>10} {'cpu s':>6} {'ratio':>6}")
-        for name, (_, paths, speeds, _) in MACHINES.items():
-            for dwell_speeds in speeds.values():
-                bag = recording(Path(tmp), name, dwell_speeds)
-                for n_params in range(1, len(paths) + 1):
+        for name in args.machines:
+            for n_speeds in args.speeds:
+                bag = recording(Path(tmp), name, MACHINES[name][2][n_speeds], args.dwell_s)
+                for n_params in range(1, args.params + 1):
                     prob = problem(name, bag, n_params)
-                    z0 = prob.initial / prob.reference
-                    one = timed(lambda: prob.scaled_residual(z0), args.repeats)[0]
-                    serial = timed(lambda: calibrate(prob, SerialBackend()), args.repeats)
-                    engine = timed(lambda: calibrate(prob, ProcessBackend(2)), args.repeats)
-                    cols = timed(lambda: calibrate(prob, ProcessBackend(2), batch_size=1),
-                                 args.repeats)
-                    same = all(np.array_equal(serial[2].values, r[2].values)
-                               for r in (engine, cols))
+                    best, out = bench(prob, args.repeats)
+                    same = all(np.array_equal(out["serial"].values, out[r].values)
+                               for r in ("engine", "columns"))
                     status |= 0 if same else 1
-                    print(f"{name:>30} {prob.points:6d} {n_params:6d} {1e3 * one:8.1f} "
-                          f"{serial[2].evaluations:6d} {serial[0]:9.2f} {serial[1]:6.2f} "
-                          f"{engine[0]:9.2f} {engine[1]:6.2f} {engine[0] / serial[0]:6.2f} "
-                          f"{cols[0]:10.2f} {cols[1]:6.2f} {cols[0] / serial[0]:6.2f}"
-                          + ("" if same else "  DIFFERENT RESULT"), flush=True)
+                    (cpu_1, wall_1), (cpu, wall) = best["one"], best["serial"]
+                    engine, cols = best["engine"], best["columns"]
+                    evals = out["serial"].evaluations
+                    print(f"{name:>30} {prob.points:6d} {n_params:6d} {1e3 * wall_1:8.1f} "
+                          f"{evals:6d} {wall:9.2f} {cpu:6.2f} {engine[1]:9.2f} {engine[0]:6.2f} "
+                          f"{engine[1] / wall:6.2f} {cols[1]:10.2f} {cols[0]:6.2f} "
+                          f"{cols[1] / wall:6.2f}" + ("" if same else "  DIFFERENT RESULT"),
+                          flush=True)
+            what = f"calibrate {name}, {prob.points} points, {n_params} parameters"
+            result(f"{what}, serial", cpu, wall, "fit", f"its {evals} model evaluations",
+                   cpu / (evals * cpu_1))
+            result(f"{what}, 2 workers as the engine schedules", engine[0], engine[1], "fit",
+                   "the serial fit", engine[1] / wall, "wall")
     print("ratio: wall time on 2 workers over serial (< 1: the workers pay off); engine: as the "
           "study engine schedules; columns: every Jacobian column a task on a worker; evals: "
-          "model evaluations of the serial fit")
+          "model evaluations of the serial fit; eval ms: one evaluation's wall time")
     return status
 
 

@@ -19,7 +19,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import copy  # noqa: E402
 
-from timing import interleaved, load_line  # noqa: E402
+from timing import interleaved, load_line, result  # noqa: E402
 from rotor_avc.config import load_config  # noqa: E402
 from rotor_avc.scenario import scenario_from_config  # noqa: E402
 from rotor_avc.sim.loop import run_loop  # noqa: E402
@@ -59,6 +59,10 @@ def main():
               f"= {cpu / cpu0:5.2f} x without (CPU)")
         print(f"    in the loop: the difference   CPU {cpu - cpu0:7.2f} us   wall "
               f"{wall - wall0:7.2f} us")
+        result(f"harmonic block alone, {name}", alone[0] * 1e-6, alone[1] * 1e-6, "sample",
+               "goal 5 us", alone[0] / 5.0)
+        result(f"loop step with the {name} harmonic block", cpu * 1e-6, wall * 1e-6, "sample",
+               "loop step without a block", cpu / cpu0)
 
 
 def block_alone(block, run_once, repeats: int) -> tuple[float, float]:

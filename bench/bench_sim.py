@@ -23,7 +23,7 @@ import copy  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from timing import interleaved, load_line, timed  # noqa: E402
+from timing import interleaved, load_line, result, timed  # noqa: E402
 from rotor_avc.config import load_config  # noqa: E402
 from rotor_avc.control.block import build_digital_controllers  # noqa: E402
 from rotor_avc.machine import load_machine  # noqa: E402
@@ -87,6 +87,12 @@ def main():
         print(f"  {label:<44} CPU {cpu * 1e6:6.2f} us  wall {wall * 1e6:6.2f} us  "
               f"= {cpu / mv:5.2f} mat-vecs  -> {1 / (cpu * FS):6.1f}x real time")
     print(f"  fast path / per-sample path: {best['fast'][0] / best['per-sample'][0]:.2f} (CPU)")
+    result("loop step, case 3*, 5 kHz", *best["fast"], "sample", "one 36x36 mat-vec",
+           best["fast"][0] / mv)
+    result("loop step, case 3*, 5 kHz", *best["fast"], "sample", "the per-sample path",
+           best["fast"][0] / best["per-sample"][0])
+    result("loop step, run-up 0 -> 250 Hz", *best["run-up"], "sample", "one 36x36 mat-vec",
+           best["run-up"][0] / mv)
     print(f"  run-up scenario (case 2, {nodes} speed nodes): first run CPU "
           f"{first[0]:.2f} s (wall {first[1]:.2f} s), the next run on the same scenario CPU "
           f"{again[0]:.2f} s (wall {again[1]:.2f} s): the speed grid is built once")

@@ -68,7 +68,7 @@ KINDS = {
              "compare_left_out",
              "sequence_gaps", "mapped_windows", "campbell_edges",
              "harmonic_block_switching", "mapped_stream_parts", "study_journal",
-             "did_you_mean"),
+             "did_you_mean", "progress_commands", "bench_smoke"),
     "paper": ("active_bearing_ff", "active_bearing_model", "balancing_rigid_runup",
               "balancing_runup_response", "balancing_switching", "foot_mount_model",
               "journal_bearing", "sleeve_bearing_model", "sleeve_bearing_paper",

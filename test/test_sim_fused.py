@@ -123,3 +123,12 @@ def test_what_the_fast_path_cannot_represent_is_not_fused(machine):
     delayed = DigitalController(blocks["DL"].tf, delay_samples=1)
     assert not fused.fusable([*blocks.values(), delayed])
     assert not fused.fusable([lambda signal: 0.0])
+
+
+def test_an_open_loop_run_takes_the_fast_path(machine, monkeypatch):
+    """No controller at all (the open machine at constant speed): the plant alone, fused."""
+    out = []
+    for fast in (True, False):
+        st = PlantStepper(machine.plant, 1 / FS, constant_speed(TWO_PI * 50), AMP)
+        out.append(run_loop(st, {}, 3000, progress=False, fast_path=fast))
+    assert_same(*out)

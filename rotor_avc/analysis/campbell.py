@@ -210,12 +210,13 @@ def sampled_poles(machine):
 
 
 def campbell_diagram(machine, speeds_rad_s, rule: str = "config", sampled: bool = False,
-                     rotor_pairs=None) -> CampbellDiagram:
+                     rotor_pairs=None, progress=None) -> CampbellDiagram:
     """Poles of ``machine`` (its ``loop``, or with ``sampled`` its sampled loop: see
     :func:`sampled_poles`) over a speed grid with a damping rule, tracked by eigenvector
     similarity (see the module docstring). ``rotor_pairs``: the rotor's lateral coordinate
     names ``(a, b)``, spin from ``a`` towards ``b``, for the whirl direction (default: the
-    model's, :data:`rotor_avc.analysis.mode_shapes.ROTOR_PAIRS`)."""
+    model's, :data:`rotor_avc.analysis.mode_shapes.ROTOR_PAIRS`); ``progress``: called
+    ``(speeds done, speeds)`` after each speed (None: quiet)."""
     if rule not in DAMPING_RULES:
         raise ModelError(f"unknown damping rule {rule!r}; known: {', '.join(DAMPING_RULES)}")
     speeds = np.asarray(speeds_rad_s, dtype=float)
@@ -241,6 +242,8 @@ def campbell_diagram(machine, speeds_rad_s, rule: str = "config", sampled: bool 
         tracked.append(lam)
         vectors.append(vec[:n])
         prev = (lam, vec)
+        if progress is not None:
+            progress(len(tracked), speeds.size)
     poles = np.array(tracked)
     scale = max(np.abs(poles[0]).max(), 1.0)
     keep = np.flatnonzero(poles[0].imag >= -1e-9 * scale)

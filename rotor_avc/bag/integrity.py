@@ -49,10 +49,11 @@ def verify(path) -> IntegrityReport:
     return report
 
 
-def scan_bag(path) -> IntegrityReport:
-    """The integrity report of the ``.mcap`` file ``path`` (see the module docstring)."""
+def scan_bag(path, progress=None) -> IntegrityReport:
+    """The integrity report of the ``.mcap`` file ``path`` (see the module docstring);
+    ``progress``: called ``(MB read, MB of the file)`` as the pass goes (None: quiet)."""
     path = Path(path)
     if not path.is_file():
         raise no_such_bag(path)
     with open(path, "rb") as f:
-        return _Pass(path, f).run()
+        return _Pass(path, f, progress).run()

@@ -24,11 +24,14 @@ from .msgdefs import MsgDefError, parse_schema
 from .schema_check import hash_problem, standard_text_problem
 
 _ENTRY = np.dtype([("time", "<u8"), ("offset", "<u8")])     # a message index entry
+#: bytes of the unit the pass's progress counts in (MB)
+MB = 1_000_000
 
 
 class _Pass(SummaryChecks):
-    def __init__(self, path: Path, f):
+    def __init__(self, path: Path, f, progress=None):
         self.f = f
+        self.progress, self._mb_read = progress, 0    # progress(MB read, MB of the file)
         self.report = IntegrityReport(path, size_bytes=path.stat().st_size)
         self.codecs: dict[int, CdrCodec | None] = {}
         self.layouts: dict[int, Layout] = {}       # the last structure seen per channel
@@ -52,6 +55,8 @@ class _Pass(SummaryChecks):
         pending = None                              # a chunk and its message indexes
         try:
             for rec in R.scan(f, rep.size_bytes):
+                if self.progress is not None:
+                    self._advance(rec.end)
                 raw_head = struct.pack("<BQ", rec.opcode, len(rec.body))
                 if rec.opcode != R.OP_MESSAGE_INDEX and pending is not None:
                     self._chunk(*pending)
@@ -93,6 +98,13 @@ class _Pass(SummaryChecks):
         self._check_records()
         self._check_topics()
         return rep
+
+    def _advance(self, end: int) -> None:
+        """Report the megabytes read (rounded up) when they grow."""
+        read = -(-end // MB)
+        if read > self._mb_read:
+            self._mb_read = read
+            self.progress(read, -(-self.report.size_bytes // MB))
 
     def _read(self, cls, rec, *extra):
         return cls.read(ReadDataStream(BytesIO(rec.body)), *extra)

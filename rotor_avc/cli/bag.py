@@ -21,6 +21,7 @@ from ..bag.errors import EXIT_CORRUPT
 from ..bag.integrity import scan_bag
 from ..bag.recover import recover_bag
 from ..bag.summary import read_summary
+from ..studies.progress import Bars
 
 NAME = "bag"
 HELP = "inspect (info), check (ros2 bag / Foxglove pitfalls, integrity) or recover a bag"
@@ -107,7 +108,8 @@ def _topic_lines(topics) -> None:
 def _info_integrity(files) -> int:
     status = 0
     for path in files:
-        r = scan_bag(path)
+        with Bars("MB") as bar:
+            r = scan_bag(path, bar)
         topics = sorted(r.topics.values(), key=lambda t: t.topic)
         starts = [t.start_ns for t in topics if t.count]
         ends = [t.end_ns for t in topics if t.count]

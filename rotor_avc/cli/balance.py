@@ -23,6 +23,7 @@ from ..machine import load_machine, model_supports
 from ..reports.balance_files import (plot_machine_runs, plot_rigid_runs, write_grades,
                                     write_machine_runs, write_rigid_runs)
 from ..output_files import make_folder
+from ..studies.progress import run_each
 from .common import nonnegative_float, output_folder
 
 NAME = "balance"
@@ -55,8 +56,9 @@ def _rigid(cfg, args) -> int:
     if args.duration_s:
         runup = dataclasses.replace(runup, duration_s=args.duration_s)
     block = setup.block()
-    bal = simulate_rigid_runup(runup, block, setup.actuator())
-    ref = simulate_rigid_runup(runup, None, setup.actuator())
+    bal, ref = run_each([lambda: simulate_rigid_runup(runup, block, setup.actuator()),
+                         lambda: simulate_rigid_runup(runup, None, setup.actuator())],
+                        "runs")                # with balancing and without
     b_true = runup.true_b()
     err = np.column_stack([np.linalg.norm(bal.b_hat[:, :2] - b_true[:2], axis=1)
                            / np.linalg.norm(b_true[:2]),
@@ -94,12 +96,12 @@ def _grades(out, grades: dict, speed_rad_s: float) -> None:
 
 def _machine(machine, args) -> int:
     setup = machine_setup(machine)
-    envelopes, records = {}, {}
-    for strategy in CORRECTION_STRATEGIES[1:]:
-        rec = simulate_machine_runup(setup.runup, setup.signals, setup.objective, setup.plane,
-                                     setup.block(strategy), setup.actuator())
-        envelopes[strategy] = np.abs(rec.response).max(axis=1)
-        records[strategy] = rec
+    strategies = CORRECTION_STRATEGIES[1:]
+    records = dict(zip(strategies, run_each(
+        [lambda s=s: simulate_machine_runup(setup.runup, setup.signals, setup.objective,
+                                            setup.plane, setup.block(s), setup.actuator())
+         for s in strategies], "runs")))
+    envelopes = {s: np.abs(rec.response).max(axis=1) for s, rec in records.items()}
     rec = records[setup.strategy if setup.strategy != "none" else "least_squares"]
     none = np.abs(rec.response_none).max(axis=1)
     table = resonance_comparison(rec.speed, none, envelopes)

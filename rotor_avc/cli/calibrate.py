@@ -15,6 +15,7 @@ from ..errors import ConfigError
 from ..output_files import make_folder, write_text
 from ..reports.calibration_report import write_calibration_html
 from ..studies.backends import add_backend_arguments, backend_from_args, check_scheduler_arg
+from ..studies.progress import clock_text
 from .common import nonnegative_float, output_folder
 
 NAME = "calibrate"
@@ -92,8 +93,9 @@ class Progress:
     def __call__(self, evaluations: int, cost: float) -> None:
         elapsed = time.perf_counter() - self.t0
         left = elapsed / max(evaluations, 1) * max(MAX_EVALUATIONS - evaluations, 0)
-        print(f"calibrate: {evaluations} model evaluations, cost {cost:.6g}, {elapsed:.1f} s "
-              f"(at most {left:.0f} s more)", file=sys.stderr, flush=True)
+        print(f"calibrate: {evaluations} model evaluations, cost {cost:.6g}, "
+              f"{clock_text(elapsed)} elapsed (at most {clock_text(left)} more)",
+              file=sys.stderr, flush=True)
 
 
 def run(args) -> int:

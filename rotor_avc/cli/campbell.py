@@ -13,6 +13,7 @@ from ..machine import load_machine
 from ..reports.campbell_plot import COLOUR_BY, plot_campbell
 from ..reports.campbell_report import write_campbell_html
 from ..output_files import make_folder, open_text
+from ..studies.progress import Bars
 from .common import (add_speed_option, config_frf_speeds_hz, output_folder,
                      speed_range_from_zero_hz)
 
@@ -89,7 +90,9 @@ def run(args) -> int:
         raise ConfigError("--running-hz", f"{args.running_hz:g} Hz lies outside the speed grid "
                           f"{speeds.min():g} .. {speeds.max():g} Hz",
                           fix="give a speed within --speed-hz")
-    cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping, args.sampled)
+    with Bars("speeds") as bar:
+        cd = campbell_diagram(machine, 2 * np.pi * args.speed_hz, args.damping, args.sampled,
+                              progress=bar)
     data = cd.to_json(args.orders, args.running_hz)
     if args.json:
         print(json.dumps(data))

@@ -12,6 +12,7 @@ from ..compare.mapped_stream import compare_mapped
 from ..errors import ConfigError
 from ..compare.report import ACCEPTANCE, write_report
 from ..machine import load_machine
+from ..studies.progress import Bars
 from .common import output_folder
 
 NAME = "compare"
@@ -59,13 +60,15 @@ def run(args) -> int:
     if args.map is not None and args.config is None:
         raise ConfigError("--map", "a mapped comparison needs the machine too",
                           fix="give --config MACHINE.yaml with --map MAP.yaml")
-    if args.map is None:
-        machine = None if args.config is None else load_machine(args.config)
-        comp = compare_bag(args.bag, in_memory=args.in_memory, machine=machine)
-    else:
-        comp = compare_mapped(args.bag, args.config, args.map, args.in_memory)
-    out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
-    report(comp, args.bag, out)
+    with Bars("s of recording") as passes:     # each pass over a streamed bag
+        if args.map is None:
+            machine = None if args.config is None else load_machine(args.config)
+            comp = compare_bag(args.bag, in_memory=args.in_memory, machine=machine,
+                               progress=passes)
+        else:
+            comp = compare_mapped(args.bag, args.config, args.map, args.in_memory)
+        out = args.out if args.out is not None else Path("out") / f"compare_{args.bag.stem}"
+        report(comp, args.bag, out)
     return {"PASS": 0, "FAIL": 1}.get(comp.verdict, EXIT_NO_VERDICT)
 
 
@@ -74,7 +77,8 @@ def report(comp, bag, out: Path) -> dict:
     from ..reports.uff_files import write_uff      # pyuff: imported only to write the file
     iso, iso_notes = iso20816_entries(comp.run)
     comp.notes.extend(iso_notes)
-    files = write_report(comp, out, iso)
+    with Bars("figures") as bar:
+        files = write_report(comp, out, iso, progress=bar)
     uff = write_uff(comp, out / "frf.uff")
     if uff is not None:
         files["uff"] = uff

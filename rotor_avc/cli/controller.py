@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from functools import partial
 
 from ..analysis.design_check import DesignError, check_design
 from ..analysis.loop_margins import (LoopAnalysis, analyse_loop, continuous_loop_frf,
@@ -18,6 +19,7 @@ from ..machine import load_machine
 from ..reports.controller_bode import plot_bode
 from ..reports.loop_plots import plot_loop_bode, plot_loop_nyquist
 from ..output_files import make_folder
+from ..studies.progress import run_each
 from .common import add_speed_option, nonnegative_float, output_folder, warn
 
 NAME = "controller"
@@ -82,18 +84,20 @@ def run(args) -> int:
     ctrl, block = machine.controllers[args.foot], blocks[args.foot]
     make_folder(args.out)
     title = f"{machine.plant.name} {args.foot}: {ctrl.describe()}"
-    bode = plot_bode(ctrl, block.tf, args.out / f"controller_{args.foot}_bode.png", title)
     sampled = SampledLoop.from_blocks(machine.plant, blocks)
     rng = sampled.stable_gain_range(speed, w_F)
     cont = analyse_loop(continuous_loop_frf(machine.plant, machine.controllers, speed, w_F))
     samp = analyse_loop(sampled_loop_frf(sampled, speed, w_F))
     where = f"f_r = {args.speed_hz:g} Hz, w_F = {w_F:.1f} rad/s"
-    plots = [bode]
+    figures = [partial(plot_bode, ctrl, block.tf, args.out / f"controller_{args.foot}_bode.png",
+                       title)]
     for foot, m in samp.loops.items():
         head = f"{machine.plant.name} loop {foot} ({where}), {1 / T:g} Hz vs continuous"
-        plots += [plot_loop_bode(m, cont.loops[foot], args.out / f"loop_{foot}_bode.png", head),
-                  plot_loop_nyquist(m, cont.loops[foot], args.out / f"loop_{foot}_nyquist.png",
-                                    head)]
+        figures += [partial(plot_loop_bode, m, cont.loops[foot],
+                            args.out / f"loop_{foot}_bode.png", head),
+                    partial(plot_loop_nyquist, m, cont.loops[foot],
+                            args.out / f"loop_{foot}_nyquist.png", head)]
+    plots = run_each(figures, "figures")
     if args.json:
         print(json.dumps(jsonable(_document(args, T, w_F, rng, cont, samp)), sort_keys=True))
         return 0

@@ -8,6 +8,7 @@ from ..machine import load_machine
 from ..interactive.page import page_files
 from ..reports.frf_files import plot_frf, write_frf_csv, write_frf_html
 from ..output_files import make_folder
+from ..studies.progress import Bars
 from .common import add_speed_option, config_frf_speeds_hz, output_folder, speed_range_hz
 
 NAME = "frf"
@@ -35,7 +36,9 @@ def run(args) -> int:
     csv_path = write_frf_csv(frf, args.out / "frf.csv")
     print(f"wrote {csv_path} ({len(frf.responses)} responses x {len(speeds_hz)} speeds)")
     if not args.no_plots:
-        for path in plot_frf(frf, args.out, machine.plant.name):
+        with Bars("figures") as bar:
+            pngs = plot_frf(frf, args.out, machine.plant.name, progress=bar)
+        for path in pngs:
             print(f"wrote {path}")
         for path in page_files(write_frf_html(frf, args.out / "index.html", machine.plant.name)):
             print(f"wrote {path}")

@@ -7,6 +7,7 @@ import sys
 
 from ..config import load_config
 from ..errors import ConfigError, ModelError
+from ..studies.progress import Bars
 from .common import add_speed_option, positive_speed_list
 
 NAME = "harmonic"
@@ -44,10 +45,11 @@ def run(args) -> int:
     cfg = load_config(args.scenario)
     model = load_machine(args.model) if args.model else None
     try:
-        result = commission(cfg.data, cfg.source, scenario_from_config, model,
-                            args.speed_hz, test_force_n=args.test_force_n,
-                            max_added_vibration=args.max_added_vibration,
-                            min_phase_margin_deg=args.min_margin_deg)
+        with Bars("steps") as bar:
+            result = commission(cfg.data, cfg.source, scenario_from_config, model,
+                                args.speed_hz, progress=bar, test_force_n=args.test_force_n,
+                                max_added_vibration=args.max_added_vibration,
+                                min_phase_margin_deg=args.min_margin_deg)
     except ModelError as exc:
         raise ConfigError("harmonic", str(exc), source=cfg.source) from None
     path = write_commission(result, args.out, cfg.source, cfg.data,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ from ..interactive.page import page_files
 from ..reports.runup_plots import plot_bode, plot_orbits, plot_polar, plot_waterfall
 from ..reports.runup_report import api_rows, write_runup_html
 from ..output_files import make_folder, write_text
+from ..studies.progress import run_each
 from .common import output_folder
 
 NAME = "runup"
@@ -97,12 +99,14 @@ def run(args) -> int:
                                for kind, checks in both.items()})
     make_folder(args.out)
     unit = args.speed_unit
-    written = [plot_waterfall(wf, channel_unit(run_, wf_channel), args.out / "waterfall.png", unit)]
+    figures = [partial(plot_waterfall, wf, channel_unit(run_, wf_channel),
+                       args.out / "waterfall.png", unit)]
     for c in channels:
-        written.append(plot_bode(track, c, args.out / f"bode_{c}.png", unit))
-        written.append(plot_polar(track, c, args.out / f"polar_{c}.png", unit))
+        figures += [partial(plot_bode, track, c, args.out / f"bode_{c}.png", unit),
+                    partial(plot_polar, track, c, args.out / f"polar_{c}.png", unit)]
     if orbs:
-        written.append(plot_orbits(orbs, args.out / "orbits.png", unit))
+        figures.append(partial(plot_orbits, orbs, args.out / "orbits.png", unit))
+    written = run_each(figures, "figures")
     write_text(args.out / "api684.json", json.dumps(jsonable({
         "operating_speed_hz": list(operating),
         "channels": {c: {k: api_rows(v) for k, v in both.items()} for c, both in tables.items()}}),

@@ -13,6 +13,7 @@ recording's length.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -47,16 +48,22 @@ def _not_streamable(bag: BagReader, topic: str) -> BagError:
                     fix="compare it with --in-memory")
 
 
-def _blocks(bag: BagReader, topics: dict):
+def _blocks(bag: BagReader, topics: dict, progress=None):
     """key -> TopicSeries of every topic, for consecutive spans of about :data:`BLOCK_S` of
     log time (chunk by chunk, each chunk decompressed once; a span where a topic has no
-    message is skipped)."""
+    message is skipped). ``progress``: called ``(whole seconds of log time read, of the
+    recording)`` after each chunk (None: quiet)."""
     if not bag.has_message_indexes:
         raise _not_streamable(bag, next(iter(topics.values())))
     keys = {topic: key for key, topic in topics.items()}
     pending = {topic: [] for topic in keys}
     span_start = None
+    first_ns, last_ns = bag.time_range_ns
+    seconds = max(1, math.ceil((last_ns - first_ns) * 1e-9))
     for later, chunk in bag.chunk_rows(list(keys)):
+        if progress is not None:
+            progress(seconds if later is None else min(seconds, (later - first_ns) // 10**9),
+                     seconds)
         for topic, (times, rows) in chunk.items():
             if rows is None:
                 raise _not_streamable(bag, topic)
@@ -84,8 +91,9 @@ class BagSource:
     """A bag as the comparison consumes it (the metadata and dwells of
     :class:`~rotor_avc.compare.recorded_run.RecordedRun`), streamed."""
 
-    def __init__(self, path):
+    def __init__(self, path, progress=None):
         self.path = Path(path)
+        self.progress = progress      # of each pass over the recording (:func:`_blocks`)
         with BagReader(self.path, require_config=True, require_messages=True,
                        integrity=True) as bag:
             self.opened = open_run(bag, self.path)
@@ -117,7 +125,7 @@ class BagSource:
         """``(time_s, angle_rad, speed_rad_s, channels, test_force)`` per block, in order."""
         self.dropped, matched_samples = 0, 0
         with BagReader(self.path) as bag:
-            for series in _blocks(bag, self.opened.topics):
+            for series in _blocks(bag, self.opened.topics, self.progress):
                 common, pick, dropped = matched(self.opened, series)
                 self.dropped += dropped
                 matched_samples += common.size

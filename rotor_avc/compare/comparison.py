@@ -410,13 +410,14 @@ def compare_run(run: RunSource) -> Comparison:
     return Comparison(run, one, bbs, poles, checks, reference, notes, reason)
 
 
-def compare_bag(path, in_memory: bool = False, machine=None) -> Comparison:
+def compare_bag(path, in_memory: bool = False, machine=None, progress=None) -> Comparison:
     """Compare a bag, a .mcap file streamed (:class:`~rotor_avc.compare.bag_source.BagSource`)
     or, with ``in_memory`` and for a rosbag2 directory, read into memory first
     (:func:`read_run`); with ``machine``, the models are that machine's in the recorded scenario
-    (sample rate, speeds, unbalance, damping rule and test force as the run had them)."""
+    (sample rate, speeds, unbalance, damping rule and test force as the run had them).
+    ``progress``: the streamed passes' ``(seconds read, seconds)`` (None: quiet)."""
     streamed = not in_memory and not Path(path).is_dir()
-    run = BagSource(path) if streamed else read_run(path)
+    run = BagSource(path, progress) if streamed else read_run(path)
     if machine is not None:
         run.scenario = dataclasses.replace(run.scenario, machine=machine)
         run.notes.append(f"models: the machine of {machine.config.source}, in the recorded "

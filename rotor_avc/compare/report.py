@@ -33,6 +33,7 @@ import csv
 import html
 import json
 from collections import defaultdict
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
@@ -164,16 +165,21 @@ def _db(v):
         return 20 * np.log10(np.abs(v))
 
 
-def plot_one_x(comp: Comparison, out_dir: Path) -> list[Path]:
-    """One PNG per kind of channel: columns = points, curves = components."""
-    plt, one = _plt(), comp.one_x
+def _one_x_groups(one) -> dict[str, dict[str, list[str]]]:
+    """Kind of channel -> point -> its channels (components): one 1x figure per kind."""
     groups: dict[str, dict[str, list[str]]] = defaultdict(lambda: defaultdict(list))
     for ch in one.measured:
         point = ch.rpartition("_")[0]
         groups[ch.split("_")[0]][point].append(ch)
+    return groups
+
+
+def plot_one_x(comp: Comparison, out_dir: Path):
+    """One PNG per kind of channel: columns = points, curves = components (yields the paths
+    as written)."""
+    plt, one = _plt(), comp.one_x
     f_meas = one.speed_rad_s / (2 * np.pi)
-    paths = []
-    for kind, points in groups.items():
+    for kind, points in _one_x_groups(one).items():
         fig, axes = plt.subplots(2, len(points), figsize=(3.4 * len(points) + 1.2, 5.6),
                                  sharex=True, squeeze=False)
         for col, (point, chans) in enumerate(points.items()):
@@ -198,14 +204,14 @@ def plot_one_x(comp: Comparison, out_dir: Path) -> list[Path]:
         fig.suptitle(f"1x {kind}: measured (o), sampled-loop model (solid), continuous (dashed)"
                      f"\n{one.reference}", fontsize=8)
         fig.tight_layout()
-        paths.append(out_dir / f"one_x_{kind}.png")
-        save_figure(fig, paths[-1], dpi=100)
+        save_figure(fig, out_dir / f"one_x_{kind}.png", dpi=100)
         plt.close(fig)
-    return paths
+        yield out_dir / f"one_x_{kind}.png"
 
 
-def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
-    plt, paths = _plt(), []
+def plot_broadband(comp: Comparison, out_dir: Path):
+    """One PNG per broadband dwell (yields the paths as written)."""
+    plt = _plt()
     for bb in comp.broadband:
         est = bb.estimate
         sel = np.isin(est.freq_hz, bb.models["sampled"].freq_hz)
@@ -243,15 +249,15 @@ def plot_broadband(comp: Comparison, out_dir: Path) -> list[Path]:
         fig.suptitle(f"broadband FRF from {comp.run.scenario.test_force.channel} at "
                      f"{speed_hz:.3f} Hz (w_F frozen at {bb.w_F:.4g} rad/s)", fontsize=9)
         fig.tight_layout()
-        paths.append(out_dir / f"broadband_{speed_hz:.1f}Hz.png")
-        save_figure(fig, paths[-1], dpi=100)
+        save_figure(fig, out_dir / f"broadband_{speed_hz:.1f}Hz.png", dpi=100)
         plt.close(fig)
-    return paths
+        yield out_dir / f"broadband_{speed_hz:.1f}Hz.png"
 
 
-def plot_poles(comp: Comparison, out_dir: Path) -> list[Path]:
+def plot_poles(comp: Comparison, out_dir: Path):
+    """The poles' PNG, when the comparison has poles (yields its path once written)."""
     if not comp.poles:
-        return []
+        return
     plt = _plt()
     nyquist = 0.5 / comp.run.sample_period_s
     fig, ax = plt.subplots(figsize=(7, 5))
@@ -273,7 +279,7 @@ def plot_poles(comp: Comparison, out_dir: Path) -> list[Path]:
     path = out_dir / "poles.png"
     save_figure(fig, path, dpi=100)
     plt.close(fig)
-    return [path]
+    yield path
 
 
 def _table(rows: list[list], head: list[str]) -> str:
@@ -388,16 +394,23 @@ def write_html(comp: Comparison, data: dict, pngs: list[Path], path: Path) -> Pa
                       blocks)
 
 
-def write_report(comp: Comparison, out_dir, iso20816=()) -> dict[str, Path]:
+def write_report(comp: Comparison, out_dir, iso20816=(), progress=None) -> dict[str, Path]:
     """Write the report folder (``iso20816``: the entries of
-    :func:`rotor_avc.compare.iso_zones.iso20816_entries`); returns the paths by role."""
+    :func:`rotor_avc.compare.iso_zones.iso20816_entries`); returns the paths by role.
+    ``progress``: called ``(figures written, figures)`` after each PNG (None: quiet)."""
     out_dir = Path(out_dir)
     make_folder(out_dir)
     data = metrics(comp, iso20816)
     write_text(out_dir / "metrics.json", json.dumps(data, indent=1))
     csv_path = write_csv(comp, out_dir / "frf.csv")
-    pngs = ((plot_one_x(comp, out_dir) if comp.one_x else []) + plot_broadband(comp, out_dir)
-            + plot_poles(comp, out_dir))
+    figures = ((len(_one_x_groups(comp.one_x)) if comp.one_x else 0) + len(comp.broadband)
+               + bool(comp.poles))
+    pngs = []
+    for path in chain(plot_one_x(comp, out_dir) if comp.one_x else (),
+                      plot_broadband(comp, out_dir), plot_poles(comp, out_dir)):
+        pngs.append(path)
+        if progress is not None:
+            progress(len(pngs), figures)
     page = write_html(comp, data, pngs, out_dir / "index.html")
     return {"index": page, "plotly": page_files(page)[1], "metrics": out_dir / "metrics.json",
             "csv": csv_path, "plots": pngs}

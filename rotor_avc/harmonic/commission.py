@@ -225,9 +225,10 @@ class TestSequence:
         return len(self._stages) * per_stage * (1 + s.max_retries) + s.ramp_revolutions + 2
 
 
-def run_test(scenario, sequence: TestSequence) -> TestSequence:
+def run_test(scenario, sequence: TestSequence, progress=None) -> TestSequence:
     """Run the test sequence on the scenario's machine (its feedback controllers closed, its
-    own harmonic control off) until it has finished; the sequence, with its results."""
+    own harmonic control off) until it has finished; the sequence, with its results.
+    ``progress``: called with the steps done after each block of samples (None: quiet)."""
     from ..sim.loop import run_blocks
     speed = scenario.profile.max_speed_rad_s
     per_rev = TWO_PI / (speed * scenario.sample_period_s)
@@ -236,7 +237,8 @@ def run_test(scenario, sequence: TestSequence) -> TestSequence:
                         feedforward=scenario.feedforward(), initial_state=scenario.initial_state,
                         block_steps=max(int(per_rev * 5), 100), progress=False,
                         stop=lambda: sequence.finished):
-        pass
+        if progress is not None:
+            progress(sequence.stage)
     if not sequence.finished:
         raise ModelError("the test sequence did not finish within its planned length")
     return sequence
@@ -414,13 +416,14 @@ def constant_speed_hz(scenario, fix: str) -> float:
 
 
 def commission(data: dict, source: str, make_scenario, model_machine=None, speeds_hz=None,
-               **overrides) -> Commissioning:
+               progress=None, **overrides) -> Commissioning:
     """Commission the ``harmonic:`` section of the scenario ``data`` (a merged config) on its
     machine: the test at each of ``speeds_hz`` (default: the scenario's constant speed; the
     machine running steadily there, harmonic control off), the
     margin on ``model_machine``'s loop (default: the scenario's machine); ``overrides``:
     ``harmonic.commission`` keys given on the command line. ``make_scenario(data, source)``
-    builds a :class:`rotor_avc.scenario.Scenario`."""
+    builds a :class:`rotor_avc.scenario.Scenario`; ``progress``: called ``(steps done, steps)``
+    over every speed's baseline and tests (None: quiet)."""
     import copy
     scenario = make_scenario(data, source)
     p = plan(scenario, model_machine, **overrides)
@@ -428,13 +431,15 @@ def commission(data: dict, source: str, make_scenario, model_machine=None, speed
         speeds_hz = [constant_speed_hz(scenario, "give the speeds (--speed-hz F[,F...])")]
     p.check_level(speeds_hz)
     results = []
-    for f in speeds_hz:
+    for i, f in enumerate(speeds_hz):
         seq = p.sequence()
+        steps = None if progress is None else (
+            lambda done, n=seq.steps, i=i: progress(i * n + done, len(speeds_hz) * n))
         run = copy.deepcopy(data)
         run.setdefault("simulation", {}).update(
             speed={"type": "constant", "speed_hz": f}, harmonic=False, initial_state="steady_state",
             duration_s=seq.max_revolutions() / f)
-        seq = run_test(make_scenario(run, source), seq)
+        seq = run_test(make_scenario(run, source), seq, steps)
         if seq.failure is not None:
             return p.result(results, seq.failure)
         results.append(p.speed_result(f, seq))

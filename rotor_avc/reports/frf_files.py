@@ -36,15 +36,16 @@ def _groups(frf: SpeedFrf) -> dict[tuple[str, str], dict[str, list[str]]]:
     return groups
 
 
-def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
+def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "", progress=None) -> list[Path]:
     """One PNG per (kind of point, excitation): subplots per point, one curve per component,
-    magnitude in dB re 1 SI unit over the rotational frequency, phase below."""
+    magnitude in dB re 1 SI unit over the rotational frequency, phase below. ``progress``:
+    called ``(figures written, figures)`` after each (None: quiet)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    paths = []
-    for (kind, excitation), points in _groups(frf).items():
+    paths, groups = [], _groups(frf)
+    for (kind, excitation), points in groups.items():
         fig, axes = plt.subplots(2, len(points), figsize=(3.6 * len(points) + 1, 6),
                                  sharex=True, squeeze=False)
         for col, (point, keys) in enumerate(points.items()):
@@ -70,6 +71,8 @@ def plot_frf(frf: SpeedFrf, out_dir: Path, title: str = "") -> list[Path]:
         save_figure(fig, path, dpi=110)
         plt.close(fig)
         paths.append(path)
+        if progress is not None:
+            progress(len(paths), len(groups))
     return paths
 
 

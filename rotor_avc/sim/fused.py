@@ -65,7 +65,8 @@ class FusedLoop:
         self._out = [row[self.nw:] for row in self.rows]
         self._matrices: dict[int, np.ndarray] = {}
         pos = [p for p, _, _ in plan]
-        self._pos, self._sig = pos, [i for _, _, i in plan]
+        self._signal_columns = self.y.start + np.array([i for _, _, i in plan], dtype=int)
+        self._force_columns = self.u.start + np.array(pos, dtype=int)
         ctrls = [c for _, c, _ in plan]
         self._meas_limit = np.array([c.measurement_limit for c in ctrls])
         self._force_limit = np.array([c.limits.force_limit_n for c in ctrls])
@@ -155,8 +156,8 @@ class FusedLoop:
         """The first row 1..count whose controller step the fused product cannot represent
         (``count`` if none)."""
         rows = self.rows[:count + 1]
-        signals = rows[1:, self.y.start + np.array(self._sig)]
-        forces = rows[:, self.u.start + np.array(self._pos)]
+        signals = rows[1:, self._signal_columns]
+        forces = rows[:, self._force_columns]
         broken = ~(np.abs(signals) <= self._meas_limit)            # also NaN
         broken |= ~(np.abs(forces[1:]) < self._force_limit)
         broken |= np.abs(np.diff(forces, axis=0)) > self._max_step
