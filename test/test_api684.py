@@ -113,6 +113,36 @@ def test_half_power_points_interpolate_between_neighbouring_samples():
     assert n2 == pytest.approx(5.0 + (0.8 - level) / (0.8 - 0.3))
 
 
+def test_a_sample_exactly_at_the_half_power_level_is_the_half_power_point():
+    """The amplitude falls to peak / sqrt(2) exactly at 2 Hz and at 4 Hz (then rises to a
+    second peak): those are N_1 and N_2, not a later crossing."""
+    level = 1 / np.sqrt(2)
+    speed = np.arange(1.0, 8.0)
+    amp = np.array([0.1, level, 1.0, level, 0.9, 0.2, 0.1])
+    assert half_power_points(speed, amp, 2) == (2.0, 4.0)
+
+
+def test_an_af_bound_of_exactly_2_5_leaves_the_af_undetermined():
+    """N_1 = 4 Hz (a sample exactly at the level), no N_2 before the record ends at 6 Hz: AF is
+    at most 5 / (6 - 4) = 2.5, which is not below 2.5 -- not known to be critically damped."""
+    speed = np.arange(1.0, 7.0)
+    amp = np.array([0.1, 0.3, 0.5, 1 / np.sqrt(2), 1.0, 0.9])
+    c = check_critical(speed, amp, 4, (20.0, 30.0))
+    assert (c.n1_hz, c.n2_hz, c.amplification_factor) == (4.0, None, None)
+    assert (c.verdict, c.required_margin_pct) == ("undetermined", None)
+
+
+@pytest.mark.parametrize("nc_hz", [100.0, 120.0])
+def test_a_critical_at_either_end_of_the_operating_range_lies_within_it(nc_hz):
+    """The operating range [N_min, N_mc] = [100, 120] Hz is closed: a sharp critical (AF ~ 1000)
+    at 100 Hz or at 120 Hz is inside it and fails, with no separation margin."""
+    speed = nc_hz + np.array([-1.0, -0.1, 0.0, 0.1, 1.0])
+    amp = np.array([0.1, 0.1, 1.0, 0.1, 0.1])
+    c = check_critical(speed, amp, 2, (100.0, 120.0))
+    assert c.amplification_factor > 1000
+    assert (c.position, c.separation_margin_pct, c.verdict) == ("within", None, "fail")
+
+
 def test_at_af_2_5_the_formula_applies():
     """API 617 6.8.2.10: AF >= 2.5 is not critically damped; 17 (1 - 1 / (2.5 - 1.5)) = 0."""
     assert required_margin_pct(2.5, "above") == 10.0

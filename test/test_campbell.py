@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from rotor_avc.analysis.campbell import campbell_diagram
+from rotor_avc.analysis.campbell import DAMPING_RULES, campbell_diagram, sampled_poles
 from rotor_avc.analysis.stability_study import machine_threshold
 from rotor_avc.cli import main
 from rotor_avc.config import load_config
@@ -157,6 +157,10 @@ def test_sampled_loop_modes_approach_the_continuous_ones():
         assert theirs.size == low.size
         assert np.allclose(theirs, low, rtol=0.02)
         assert not np.allclose(theirs, low, rtol=1e-6)            # a different model indeed
+    # the sampled loop's eigenvectors are tracked by MAC, which needs unit-norm columns
+    lam, vec = sampled_poles(machine)(speeds[1], DAMPING_RULES["config"](machine, speeds[1]))
+    assert lam.size == vec.shape[1] and vec.shape[0] >= machine.plant.n
+    np.testing.assert_allclose(np.linalg.norm(vec, axis=0), 1.0, rtol=1e-12)
 
 
 def test_a_fine_speed_grid_is_accepted():
@@ -165,3 +169,5 @@ def test_a_fine_speed_grid_is_accepted():
     assert cd.poles.shape[0] == 3
     with pytest.raises(ModelError, match="increasing grid"):
         campbell_diagram(disk_machine(), 2 * np.pi * np.array([1.0, 1.0]), rule="forced")
+    with pytest.raises(ModelError, match="grid of >= 2 speeds"):
+        campbell_diagram(disk_machine(), 2 * np.pi * np.array([1.0]), rule="forced")

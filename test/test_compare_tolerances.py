@@ -112,6 +112,15 @@ def test_resonance_frequency_error(shift_pct, passes):
     check = c["resonance frequency error"]
     assert check.value == pytest.approx(shift_pct, abs=0.1)
     assert check.passed is passes
+    # hand computation: the vertex of the parabola (dB) through the highest measured point and
+    # its neighbours, x1 + h (y0 - y2) / (2 (y0 - 2 y1 + y2)), against the model's peak
+    # fn sqrt(1 - 2 zeta^2), in percent
+    db = 20 * np.log10(np.abs(mode(f, FN_HZ * (1 + shift_pct / 100))))
+    i = int(np.argmax(db))
+    y0, y1, y2 = db[i - 1:i + 2]
+    vertex_hz = f[i] + 0.15 * (y0 - y2) / (2 * (y0 - 2 * y1 + y2))
+    assert check.value == pytest.approx(
+        100 * (vertex_hz / (FN_HZ * np.sqrt(1 - 2 * ZETA ** 2)) - 1), abs=1e-3)
 
 
 def test_settling_tolerance_just_inside_is_checked_just_outside_is_left_out():
@@ -145,6 +154,26 @@ def test_points_far_below_the_model_peak_are_not_rated():
     # the zero and the points around it (about 50 dB below the peak) are not rated
     assert below[k] and below.sum() == 4 and c["checked_points"] == F_MEAS.size - 4
     assert rated(one)["1x magnitude error away from resonances"].passed
+
+
+def test_a_point_exactly_floor_db_below_the_peak_is_rated():
+    """The floor is inclusive: a model exactly 40 dB (a factor 0.01) below the channel's peak of
+    1 is rated, one a bit (one unit in the last place) further below is not."""
+    def step(f):
+        f = np.asarray(f)
+        return np.select([f < 5.0, f < 7.0], [np.nextafter(0.01, 0.0), 0.01], 1.0) + 0j
+    one = one_x(mode(F_MEAS), extra={"foot_2_x": (step(F_MEAS), step)})
+    assert one.channels["sampled"]["foot_2_x"]["checked_points"] == np.count_nonzero(F_MEAS >= 5)
+
+
+def test_the_half_power_band_edges_are_at_the_resonance():
+    """Measured at every point of the dense curve: the points at a resonance are exactly those
+    within 3 dB of the dense curve's highest point, both band edges included."""
+    one = one_x(mode(F_DENSE), f_meas=F_DENSE)
+    db = 20 * np.log10(np.abs(mode(F_DENSE)))
+    within = np.flatnonzero(db >= db.max() - 3.0)
+    assert within.size > 2 and np.all(np.diff(within) == 1)     # one contiguous band
+    assert np.array_equal(np.flatnonzero(one.channels["sampled"][CH]["at_resonance"]), within)
 
 
 @pytest.mark.parametrize("db, dead", [(-100.0, False), (-130.0, True)])
@@ -224,6 +253,9 @@ def test_nothing_to_rate_gets_its_reason():
         "no broadband bin reaches coherence 0.98"
     assert checks._no_verdict_reason(SimpleNamespace(has_test_force=False), None, [], None) \
         .startswith("nothing to compare")
+    assert checks._no_verdict_reason(forced, one, [bb], None) == (
+        "every 1x point is more than 40 dB below its channel's model peak or unrated (a run "
+        "with a test force)")
     one.channels["sampled"][CH]["unsettled"][:3] = True
     assert checks._no_verdict_reason(forced, one, [bb], None).startswith(
         "every 1x point is left out: 3 point(s) not in steady state")

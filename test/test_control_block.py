@@ -47,6 +47,7 @@ def test_config_settings_and_runtime_keys(tmp_path):
     assert dl.delay_samples == 2 and dr.delay_samples == 0
     assert dl.limits.force_limit_n == 50.0 and math.isinf(dr.limits.force_limit_n)
     assert dl.anti_windup == "back_calculation" and "anti-windup" in dl.describe()
+    assert "rate limit 1e+06 N/s" in dl.describe() and "rate limit" not in dr.describe()
     # the sample period argument overrides the config's rate
     assert build_digital_controllers(machine, 1e-4)["DL"].sample_period_s == 1e-4
 
@@ -101,6 +102,10 @@ def test_delay_samples_delay_the_force_exactly():
     assert [twin.step(v) for v in x[:20]] == [delayed.step(v) for v in x[:20]]
     with pytest.raises(ModelError, match="delay state must be 3"):
         twin.set_state({"filter": (0.0, 0.0), "delay": (1.0,)})
+    # a state without a last force (a filter state set by hand) starts from 0 N, as after a
+    # reset: a rejected first sample holds 0 N
+    twin.set_state({"filter": delayed.state["filter"], "delay": (1.0, 2.0, 3.0)})
+    assert twin.last_force_n == 0.0 and twin.step(float("nan")) == 0.0
     delayed.reset()
     assert delayed.state["delay"] == (0.0, 0.0, 0.0) and delayed.last_force_n == 0.0
 
@@ -113,7 +118,20 @@ def test_steady_state_start_with_delay_and_limits_has_no_transient():
     np.testing.assert_allclose(forces, -1e6 * 0.02, rtol=1e-12)
     held = DigitalController(discretize_controller(i_controller(1.4e5, "acceleration"), 2e-4))
     held.init_steady_state(0.0, force_n=-300.0)
+    assert held.last_force_n == -300.0
+    assert held.step(float("nan")) == -300.0           # a rejected sample holds that force
     assert [held.step(0.0) for _ in range(10)] == [-300.0] * 10
+
+
+def test_a_steady_state_at_the_force_limit_to_rounding_is_accepted():
+    """PD on displacement, G_c(0) = kp = 1e6 N/m: the steady force of 7 mm is 7000 N, exactly
+    the limit (the filter's state gives it 1e-15 relative above: rounding, not an excess)."""
+    tf = discretize_controller(pd_controller(1e6, 1e3, "displacement", 1e-4), 1e-4, "tustin")
+    block = DigitalController(tf, force_limit_n=7000.0)
+    block.init_steady_state(0.007)
+    np.testing.assert_allclose([block.step(0.007) for _ in range(5)], -7000.0, rtol=1e-12)
+    with pytest.raises(ModelError, match="steady-state force -7007 N exceeds force_limit_n"):
+        block.init_steady_state(0.007007)
 
 
 def test_bumpless_gain_change_of_a_holding_integrator():

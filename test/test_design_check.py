@@ -6,17 +6,20 @@ The sampled loop's verdict is checked against the continuous closed loop (Werner
 separate eigenproblem): at a high sample rate the unstable poles s = ln(z)/T of the one are
 those of the other."""
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import yaml
 
-from rotor_avc.analysis.design_check import (DesignError, check_design, check_scenario,
+from rotor_avc.analysis import design_check
+from rotor_avc.analysis.design_check import (DesignCheck, DesignError, check_design, check_scenario,
                                              natural_frequencies_hz)
 from rotor_avc.analysis.poles import closed_loop_poles, machine_poles
 from rotor_avc.cli import main
 from rotor_avc.closed_loop.loop import ClosedLoop
 from rotor_avc.config import find_config
+from rotor_avc.control.spec import ContinuousController
 from rotor_avc.machine import load_machine
 from rotor_avc.scenario import load_scenario
 
@@ -90,6 +93,10 @@ def test_unstable_poles_agree_with_the_continuous_loop(tmp_path):
     samp = sorted((r["growth_per_s"], r["freq_hz"]) for r in chk.unstable_poles)
     assert len(cont) == len(samp) >= 1
     np.testing.assert_allclose(samp, cont, rtol=0.02, atol=0.05)
+    # damping ratio -Re s / |s| of s = growth + j 2 pi f (the module docstring)
+    for r in chk.unstable_poles:
+        s_abs = math.hypot(r["growth_per_s"], 2 * math.pi * r["freq_hz"])
+        assert r["damping_ratio"] == pytest.approx(-r["growth_per_s"] / s_abs, rel=1e-12)
     assert not chk.ok
 
 
@@ -147,3 +154,42 @@ def test_refusal_is_an_error_unless_allowed():
     with pytest.raises(DesignError, match="made up.*allow_unstable: true"):
         chk.enforce(False, "here")
     assert chk.enforce(True, "here") == ["made up (running anyway: control.allow_unstable is true)"]
+
+
+def test_a_fatal_reason_is_not_offered_allow_unstable_as_a_fix():
+    chk = DesignCheck(5000.0, refusals=["unstable"], fatal=["improper"])
+    with pytest.raises(DesignError) as err:
+        chk.enforce(False, "here")
+    assert str(err.value) == "here: improper; unstable"
+
+
+def test_an_improper_controller_is_fatal_before_the_loop_is_built(tmp_path):
+    chk = check_scenario(load_scenario(ideal_pid_scenario(tmp_path)))
+    assert len(chk.fatal) == 1 and chk.fatal[0].startswith("controllers.DL: the PID controller")
+    assert chk.unstable_poles == [] and chk.refusals == []
+
+
+def refusals(den) -> list[str]:
+    """The controller checks' refusals of G_c = 1 / den(s) on DL."""
+    ctrl = ContinuousController(np.array([1.0]), np.asarray(den, float), "displacement")
+    out = DesignCheck(5000.0)
+    design_check._controller_checks(SimpleNamespace(controllers={"DL": ctrl}), out)
+    return out.refusals
+
+
+def test_poles_on_the_imaginary_axis_are_not_in_the_right_half_plane():
+    """G_c = 1 / ((s^2 + 100)(s + 5)): poles +-10j (np.roots gives them a real part of +4e-15)
+    and -5, marginally stable, accepted; a pole at +1e-3 rad/s is refused; a constant
+    denominator has no pole."""
+    assert refusals(np.polymul([1.0, 0.0, 100.0], [1.0, 5.0])) == [] == refusals([2.0])
+    [refusal] = refusals(np.polymul([1.0, 0.0, 100.0], [1.0, -1e-3]))
+    assert "right half-plane (+0.001+0j rad/s)" in refusal
+
+
+def test_a_right_half_plane_pole_is_judged_against_the_largest_pole():
+    """np.roots errs by about eps x the largest root: with a pole at -1e4 rad/s, a root at
+    +1e-6 rad/s (den s^2 + 1e4 s - 1e-2) is within 1e-9 x 1e4 of the axis -- round-off of a
+    converted or fitted G_c, accepted -- and one at +1e-4 (den s^2 + 1e4 s - 1) is refused."""
+    assert refusals([1.0, 1e4, -1e-2]) == []
+    [refusal] = refusals([1.0, 1e4, -1.0])
+    assert "right half-plane (+0.0001+0j rad/s)" in refusal

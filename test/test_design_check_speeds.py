@@ -28,7 +28,9 @@ from rotor_avc.analysis.design_check import (DIVERGENCE_GROWTH, DesignCheck, Des
                                              DivergenceWatch, MAX_SPEEDS, check_design,
                                              check_scenario, enforce_scenario, fault_summary,
                                              natural_frequencies_hz, scenario_speeds)
+from rotor_avc.analysis.sampled_loop import SampledLoop
 from rotor_avc.config import find_config
+from rotor_avc.control.block import build_digital_controllers
 from rotor_avc.scenario import load_scenario
 
 CASE3 = ("DL", "DR", "NL")
@@ -176,6 +178,39 @@ def test_a_growing_run_is_said_with_its_rate_and_the_nearest_unstable_pole():
     assert "60 Hz" in watch_run(50.0)
 
 
+def test_without_a_rate_the_fastest_growing_pole_is_named():
+    check = DesignCheck(1e3, unstable_poles=[
+        {"speed_hz": 20.0, "freq_hz": 30.0, "damping_ratio": -0.1, "growth_per_s": 20.0},
+        {"speed_hz": 20.0, "freq_hz": 60.0, "damping_ratio": -0.2, "growth_per_s": 50.0}])
+    assert check.growing_mode().startswith("60 Hz, damping ratio -0.2 (grows e^(50 t))")
+    assert check.growing_mode(25.0).startswith("30 Hz")
+    assert DesignCheck(1e3).growing_mode() is None
+
+
+def test_a_run_that_ends_before_the_middle_of_its_last_tenth_states_no_rate():
+    """10 s planned (n = 10000), e^(20 t) fed up to t = 9.4 s only: the last tenth's largest value
+    e^(20 * 9.4) against the first's e^(20 * 0.999) is a divergence, but without the last tenth's
+    mid-time (9.499 s) no growth rate is measured -- the fastest-growing pole is named."""
+    rows = [{"speed_hz": 20.0, "freq_hz": 30.0, "damping_ratio": -0.1, "growth_per_s": 20.0},
+            {"speed_hz": 20.0, "freq_hz": 60.0, "damping_ratio": -0.2, "growth_per_s": 50.0}]
+    n, T = 10_000, 1e-3
+    t = np.arange(9401) * T
+    watch = DivergenceWatch(DesignCheck(1 / T, unstable_poles=rows), n)
+    assert watch.feed(Block(t, {"x": np.exp(20.0 * t)}, {"x": "m"})) is None
+    verdict = watch.verdict()
+    assert verdict == (f"the run diverged: x grew from {math.exp(20 * 0.999):.3g} to "
+                       f"{math.exp(20 * 9.4):.3g} m as the unstable closed-loop pole 60 Hz, "
+                       "damping ratio -0.2 (grows e^(50 t)) at 20 Hz shaft speed")
+
+
+def test_a_run_shorter_than_ten_samples_has_no_tenths_to_compare():
+    rows = [{"speed_hz": 20.0, "freq_hz": 30.0, "damping_ratio": -0.1, "growth_per_s": 20.0}]
+    watch = DivergenceWatch(DesignCheck(1e3, unstable_poles=rows), 9)
+    t = np.arange(9) * 1e-3
+    assert watch.feed(Block(t, {"x": 10.0 ** np.arange(9)}, {"x": "m"})) is None
+    assert watch.verdict() is None
+
+
 def test_growth_below_the_divergence_factor_or_without_unstable_poles_is_no_divergence():
     # e^(sigma 9 s) = 0.9 DIVERGENCE_GROWTH: no verdict; 1.1 times it: diverged
     sigma = math.log(DIVERGENCE_GROWTH) / 9.0
@@ -212,6 +247,16 @@ def test_the_watch_takes_exactly_the_first_and_the_last_tenth():
     for k in range(0, n, 500):
         assert watch.feed(Block(t[k:k + 500], {"x": x[k:k + 500]}, {"x": "m"})) is None
     assert watch.verdict().startswith("the run diverged: x grew from 1 to 1e+04 m ")
+
+
+def test_growth_by_exactly_the_divergence_factor_is_a_divergence():
+    rows = [{"speed_hz": 20.0, "freq_hz": 30.0, "damping_ratio": -0.1, "growth_per_s": 20.0}]
+    t = np.arange(1000) * 1e-3
+    x = np.ones(1000)
+    x[950] = DIVERGENCE_GROWTH                                 # 1000 x the first tenth's 1
+    watch = DivergenceWatch(DesignCheck(1e3, unstable_poles=rows), 1000)
+    watch.feed(Block(t, {"x": x}, {"x": "m"}))
+    assert watch.verdict().startswith("the run diverged: x grew from 1 to 1e+03 m ")
 
 
 def test_the_reported_growth_uses_the_exact_tenths():
@@ -278,3 +323,18 @@ def test_the_check_states_its_rate_and_keeps_unresolved_speeds_out_of_the_poles(
     assert chk.fatal and "not resolved in double precision" in chk.fatal[0]
     assert chk.unstable_poles == []
     assert check_design(machine, 2e-4, [], lambda w: w).sample_rate_hz == pytest.approx(5000.0)
+
+
+def test_a_pole_further_than_the_resolution_from_the_unit_circle_is_resolved(case3):
+    """At high rates the slowest pole sits at |z| ~ 1 - sigma T (sigma ~ 9.2 1/s for case 3 at
+    20 Hz, measured here at 1 MHz): the rate that puts it 1.5e-7 inside the circle is resolved,
+    the one that puts it 0.5e-7 inside is not (RESOLUTION = 1e-7)."""
+    machine, _ = case3
+    speed, w_F = TWO_PI * 20.0, TWO_PI * 30.0
+    loop = SampledLoop.from_blocks(machine.plant, build_digital_controllers(machine, 1e-6))
+    sigma = float(np.min(np.abs(np.abs(loop.poles(speed, w_F).z) - 1.0))) / 1e-6
+    assert 9.0 < sigma < 9.5
+    resolved = check_design(machine, 1.5e-7 / sigma, [speed], lambda w: w_F)
+    assert resolved.ok and resolved.fatal == []
+    unresolved = check_design(machine, 0.5e-7 / sigma, [speed], lambda w: w_F)
+    assert "poles within 1e-07 of |z| = 1" in unresolved.fatal[0]

@@ -21,7 +21,8 @@ states it switches between, each against a hand computation:
   schedule takes the nearest node in log speed;
 * a limit that does not bind reports no saturation (also for an actuator whose phasor is zero);
 * online identification learns the plant's influence from the changes of phasors and error
-  (from a prior 30 % and 25 degrees off, with the dither);
+  (from a prior 30 % and 25 degrees off, with the dither), and with the dither's response
+  ``G^ D`` taken out of the error the phasors cancel the disturbance (``p + g U = 0``);
 * switched on again, the supervisor measures the level with control off again.
 """
 import copy
@@ -239,7 +240,7 @@ def test_a_fallback_fades_phasors_and_estimate_in_about_fade_updates(adapt_in):
                                                   divergence_factor=1.5, fade_updates=10,
                                                   update_every_samples=100))
     c_true = np.array([0.5 + 0.5j])
-    u, U, C = 0.0, [], []
+    U, C = [], []
     for k in range(4000):
         angle = SPEED * k * T
         y = (((h @ c_true) + g @ block.U[0]) * np.exp(1j * angle)).real
@@ -409,6 +410,9 @@ def test_online_identification_learns_the_influence_from_the_changes():
         block.step(list(y), angle, SPEED)
     assert np.abs(prior - g).max() > 0.3
     np.testing.assert_allclose(block.estimate[0], g, atol=1e-6)
+    # the dither's own response G^ D is taken out of E before the law acts: the phasors cancel
+    # the disturbance (Newton's fixed point p + g U = 0) though the dither keeps changing
+    assert np.abs(p + g @ block.U[0]).max() < 1e-7
 
 
 def test_switched_on_again_the_supervisor_measures_the_level_with_control_off_again():

@@ -9,8 +9,11 @@ descent with an effort weight settles on its closed-form optimum (rotor_avc.harm
   when the rate limit binds. The rate limit of 100 N/s at 10 Hz allows 1.59 N, the force limit
   is 50 N: a check that compared the slope (N/s) with the force limit (N), or the force (N)
   with the rate limit (N/s), gives 0.80 N or 100 N instead and fails here.
+  A force limit below 1 N (0.03 N against cancelling forces of about 0.1 N) binds the same way.
 * Adapting in the excitations, the estimate ``C`` is scaled with the phasors: ``U = -pinv(G) H C``
-  after every update (one actuator), so the estimate never winds up behind a saturated force.
+  after every update (one actuator), so the estimate never winds up behind a saturated force;
+  through a run-up the phasors refreshed between updates (``refresh_samples``) from a growing
+  disturbance model are scaled into the force limit at once.
 * The dynamic feed-forward (:class:`DynamicHarmonicController`, Werner 2021 case 2 at a constant
   10 Hz between its 9.4 and 17.2 Hz modes): unlimited its forces reach 48 N and slopes of about
   3.4e3 N/s within a block; with ``force_limit_n`` 20 N the peak is <= 20 N, with
@@ -97,6 +100,17 @@ def test_force_limit_binds_and_is_never_exceeded(law):
     assert block.saturated and np.abs(block.U[0]).max() == pytest.approx(3.0, rel=1e-12)
 
 
+def test_a_force_limit_below_1_n_binds_too():
+    """Cancelling forces of about 0.1 N (P / 100) against a 0.03 N limit: the peak force ends at
+    the limit, below 1 N as above it."""
+    p = P / 100
+    assert 0.03 < np.abs(np.linalg.pinv(G) @ p).max() < 1.0
+    block = HarmonicController(schedule(G), T, settings(gain=0.5, force_limit_n=0.03))
+    forces, _ = run(block, G, p, 5_000)
+    assert np.abs(forces).max() <= 0.03 * (1 + 1e-12)
+    assert block.saturated and np.abs(block.U[0]).max() == pytest.approx(0.03, rel=1e-12)
+
+
 @pytest.mark.parametrize("law", ["newton", "steepest_descent"])
 def test_rate_limit_in_n_per_s_binds_and_is_never_exceeded(law):
     rate = 100.0                           # N/s: at 62.8 rad/s an amplitude of 1.59 N
@@ -131,6 +145,29 @@ def test_the_excitation_estimate_is_scaled_with_the_saturated_force():
     assert np.abs(block.U[0]).max() == pytest.approx(2.0, rel=1e-12)
     # the estimate stays where the limited force puts it, not wound up towards the truth
     assert np.abs(block.C).max() < 0.5 * np.abs(truth).max()
+
+
+def test_the_phasors_refreshed_between_updates_stay_within_the_force_limit():
+    """Adapting in the excitations through a run-up from 10 to 18 Hz, the disturbance model
+    growing fourfold over the schedule (5 to 20 Hz): every ``refresh_samples`` the phasors
+    ``U = -pinv(G) H(Omega) C`` of a saturated estimate grow with ``H`` before the next update,
+    and are scaled back into the force limit at once -- no force between updates exceeds it."""
+    g = G[:, :1]
+    h = np.array([[2.0 + 1.0j], [-1.0 + 0.5j]])
+    sched = InfluenceSchedule(np.array([0.5 * SPEED, 2 * SPEED]), (1,),
+                              np.stack([g[None], g[None]]), ("s0", "s1"), ("a0",),
+                              np.stack([h, 4 * h]), ("unbalance",))
+    block = HarmonicController(sched, T, settings(law="newton", gain=0.5, adapt_in="excitations",
+                                                  refresh_samples=10, force_limit_n=2.0))
+    truth = np.array([8.0 - 3.0j])
+    angle, peak = 0.0, 0.0
+    for k in range(5_000):
+        speed = SPEED * (1 + 0.8 * k / 5_000)
+        y = ((sched.disturbance_at(speed) @ truth + g @ block.U[0]) * np.exp(1j * angle)).real
+        peak = max(peak, np.abs(block.step(list(y), angle, speed)).max())
+        angle += speed * T
+    assert block.saturated and peak <= 2.0 * (1 + 1e-12)
+    assert np.abs(block.U[0]).max() == pytest.approx(2.0, rel=1e-12)
 
 
 def optimum(g, p, beta, w=None):
@@ -267,13 +304,17 @@ def test_a_zero_influence_estimate_is_refused():
 def test_integrating_laws_iterate_the_error_and_leaky_ones_the_phasors():
     """Newton with gain 1 on an exact 3 x 2 model: the error iteration ``I - G B`` (3 x 3) keeps
     the one sensor direction the two actuators cannot reach (eigenvalues 0, 0, 1); with leakage
-    the phasor iteration ``A_U - B G`` (2 x 2) has the eigenvalues 1 - l - mu = -0.1 twice."""
+    the phasor iteration ``A_U - B G`` (2 x 2) has the eigenvalues 1 - l - mu = -0.1 twice.
+    Steepest descent without leakage or effort weight integrates too (``A_U = I``); with an
+    effort weight (wls) it does not."""
     g = RNG.standard_normal((3, 2)) + 1j * RNG.standard_normal((3, 2))
     A_U, B = update_matrices(g, "newton", 1.0)
     M = iteration_matrix(A_U, B, g)
     assert M.shape == (3, 3)
     np.testing.assert_allclose(np.sort(np.abs(np.linalg.eigvals(M))), [0, 0, 1], atol=1e-12)
     assert convergence_radius(A_U, B, g) == pytest.approx(1.0, abs=1e-12)
+    assert iteration_matrix(*update_matrices(g, "steepest_descent", 0.5), g).shape == (3, 3)
+    assert iteration_matrix(*update_matrices(g, "wls", 0.5, effort_weight=0.1), g).shape == (2, 2)
     A_U, B = update_matrices(g, "newton", 1.0, leakage=0.1)
     M = iteration_matrix(A_U, B, g)
     assert M.shape == (2, 2)

@@ -104,7 +104,8 @@ def test_an_encoder_angle_gives_the_shaft_and_its_top_speed():
 
 @pytest.mark.parametrize("change, error", [
     (lambda c: c["foot_DL_az"].update(sign=0.5), r"channels.foot_DL_az.sign: must be \+1 or -1"),
-    (lambda c: c["foot_DL_az"].update(sign=-2), r"channels.foot_DL_az.sign"),
+    (lambda c: c["foot_DL_az"].update(sign=-2),
+     r"channels.foot_DL_az.sign: must be \+1 or -1 \(got -2\)"),
     (lambda c: c["foot_DL_az"].update(topic="imu"), r"channels.foot_DL_az.topic: 'imu' is not an"),
     (lambda c: c.update(foot_XX_az={"topic": "/x", "field": "data"}),
      r"channels.foot_XX_az.*is not a signal of the machine"),

@@ -4,18 +4,19 @@ inside the time every channel covers (a channel starting exactly at a window's s
 ending exactly at a window's end keep those windows), each channel's 1x phasor exactly (the
 signals are cosines of the shaft angle the pulses give), the notes, the assumed duration and
 the refusals (too few values, a sensor clock step mid-stream and at a channel's end, a missing
-topic)."""
+topic); read whole onto a grid instead (``read_mapped_run``, with a test force or
+``--in-memory``): the same clock-step refusal, the duration, the shaft's note and the
+interpolation loss stated at the test band's top."""
 import contextlib
-import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import yaml
 
-from rotor_avc.compare import mapped_stream
+from rotor_avc.compare import mapped_run, mapped_stream
 from rotor_avc.compare.comparison import RUNUP_REVOLUTIONS
 from rotor_avc.compare.mapped_run import load_machine_and_map
+from rotor_avc.config import find_config, load_yaml
 from rotor_avc.errors import ConfigError
 
 G = 9.80665
@@ -114,6 +115,12 @@ def stream(monkeypatch, loaded, bag):
     return mapped_stream.MappedStream("rig.mcap", None, loaded[1], loaded[0])
 
 
+def whole(monkeypatch, loaded, bag):
+    """The recording read whole onto a grid (``read_mapped_run``, as with ``--in-memory``)."""
+    monkeypatch.setattr(mapped_run, "open_bag", lambda path, **kw: contextlib.nullcontext(bag))
+    return mapped_run.read_mapped_run("rig.mcap", None, loaded[1], loaded[0])
+
+
 def test_run_up_windows_inside_every_channel_and_their_exact_1x(monkeypatch, loaded):
     run = stream(monkeypatch, loaded, recording(nan_values=3))
     # 40 revolutions in windows of 8: [p0, p8] ... [p32, p40]; /imu starts at p8, /vel ends at
@@ -192,6 +199,10 @@ def test_a_sensor_clock_step_is_refused_naming_the_channel_and_its_time(monkeypa
     text = str(err.value)
     assert "the header stamps of /imu step by +2 s" in text and "(1 clock step(s)" in text
     assert f"at {log_s:.6g} s into the recording" in text
+    with pytest.raises(ConfigError, match=r"the header stamps of /imu step by \+2 s .*\(1 clock "
+                                          r"step\(s\)") as err:
+        whole(monkeypatch, loaded, bag)                  # read whole: refused the same way
+    assert err.value.field == "channels.foot_DL_az.stamp"
 
 
 def test_a_mapped_topic_missing_from_the_bag_is_refused(monkeypatch, loaded):
@@ -205,7 +216,6 @@ def test_compare_streams_a_recording_without_a_test_force_or_reads_it_whole(monk
                                                                            tmp_path):
     """``compare_mapped``: streamed by default, read whole onto a grid with ``in_memory``; the
     same windows and 1x phasors either way (each channel fitted at its own stamps)."""
-    from rotor_avc.compare import mapped_run
     bag = recording()
     for module in (mapped_stream, mapped_run):
         monkeypatch.setattr(module, "open_bag", lambda path, **kw: contextlib.nullcontext(bag))
@@ -222,3 +232,27 @@ def test_compare_streams_a_recording_without_a_test_force_or_reads_it_whole(monk
     np.testing.assert_allclose(a.speed_rad_s, b.speed_rad_s, rtol=1e-12)
     for name in a.measured:
         np.testing.assert_allclose(a.measured[name], b.measured[name], rtol=1e-9)
+
+
+def test_read_whole_with_a_test_force_states_the_loss_at_the_band_top(monkeypatch, tmp_path):
+    """Read whole onto a grid (a test force on /shaker from pulse 4 to 36): the duration is the
+    time every channel covers (from /imu's first stamp to /vel's last), the shaft is described,
+    and the interpolation loss is stated at the test band's top, 400 Hz, above the 30 Hz top
+    shaft speed (10 + 10 t Hz at t = 2 s)."""
+    data = load_yaml(find_config("foot_mount_case3"))
+    data["simulation"] = {"test_signal": {"actuator": "DL", "kind": "white", "rms_n": 100.0,
+                                          "band_hz": [2.0, 400.0]}}
+    config = tmp_path / "machine.yaml"
+    config.write_text(yaml.safe_dump(data))
+    path = write_map(tmp_path / "map.yaml", test_force={"topic": "/shaker", "field": "data"})
+    bag = recording()
+    shaker_ns = np.arange(PULSES_NS[4], PULSES_NS[36], 500_000, dtype=np.int64)
+    bag.topics["/shaker"] = Series("/shaker", shaker_ns, shaker_ns + 100_000,
+                                   data=np.sin(2 * np.pi * 100.0 * (shaker_ns - T0_NS) * 1e-9))
+    run = whole(monkeypatch, (load_machine_and_map(config, path), path), bag)
+    span = P_S[32] - P_S[8]
+    assert run.assumptions["duration_s"]["value"] == pytest.approx(span, abs=1e-12)
+    assert any(n.startswith("shaft (pulse, /tacho): 41 pulses") for n in run.notes)
+    [loss] = [n for n in run.notes if n.startswith("resampling: linear interpolation")]
+    assert "interpolation loss at 400 Hz: " in loss
+    assert run.test_source == "recorded (/shaker)"

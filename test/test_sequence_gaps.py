@@ -124,6 +124,10 @@ def test_a_bag_without_sampled_topics_has_no_samples():
     assert (report.samples, report.gaps, report.ok) == (0, [], True)
     assert report.notes[-1] == ("incomplete run: 0 of the scenario's 100 samples (0 of 0.1 s) "
                                 "were recorded")
+    # without the scenario's sample count (0: unknown) the run's length is not judged
+    unknown = check_sequence(reader({"/rosout": np.arange(5)}))
+    assert (unknown.samples, unknown.expected) == (0, 0)
+    assert not any(n.startswith("incomplete run") for n in unknown.notes)
 
 
 def test_a_topic_that_lost_its_first_samples_and_exactly_the_listed_ranges():
@@ -137,3 +141,7 @@ def test_a_topic_that_lost_its_first_samples_and_exactly_the_listed_ranges():
                      seq.range_count)
     assert gaps.describe() == (f"{B}: 5 sample(s) missing at 0.0010 s, 0.0030 s, 0.0050 s, "
                                "0.0070 s, 0.0090 s")            # no "and 0 more"
+    seq.finish(2 * RANGES_SHOWN + 3)                            # one range more: the tail
+    gaps = TopicGaps(B, seq.missing, [(a * 0.001, b * 0.001) for a, b in seq.ranges], 0,
+                     seq.range_count)
+    assert gaps.describe().endswith("0.0090 s and 1 more range(s)")

@@ -118,6 +118,17 @@ def test_at_most_max_tasks_batches(monkeypatch):
     assert spec.evaluator.seen == list(range(50))
 
 
+@pytest.mark.parametrize("n, size", [(10_002, 1), (10_003, 2)])
+def test_at_most_10000_tasks_as_the_readme_states(monkeypatch, n, size):
+    """Points of negligible cost, two measured here: 10,000 remaining points go one to a task,
+    10,001 need batches of two (ceil(10001 / 10000) = 2: 5,001 tasks, not 10,001)."""
+    monkeypatch.setattr(engine, "TASK_TARGET_S", 1e-12)
+    monkeypatch.setattr(engine, "CALIBRATE_S", 0.0)
+    spec, backend = study(n), Recording()
+    run = run_study(spec, backend, progress=False)
+    assert run.batch_size == size and len(backend.batches) == math.ceil((n - 2) / size) <= 10_000
+
+
 def test_a_single_point_is_evaluated_here_and_measured():
     spec, backend = study(1), Recording()
     run = run_study(spec, backend, progress=False)

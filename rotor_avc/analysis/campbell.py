@@ -204,8 +204,7 @@ def sampled_poles(machine):
     loop = machine_sampled_loop(machine)
 
     def poles(speed: float, res: PoleResult):
-        lam, vec = SampledEigenvalues(loop, res.w_F).eig(speed)
-        return lam, vec / np.linalg.norm(vec, axis=0)
+        return SampledEigenvalues(loop, res.w_F).eig(speed)    # np.linalg.eig: unit-norm columns
     return poles
 
 

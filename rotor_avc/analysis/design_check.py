@@ -100,8 +100,8 @@ def _controller_checks(machine, out: DesignCheck) -> None:
                              "improper (an ideal derivative cannot run as a causal filter) -- add "
                              "derivative_filter_s")
             continue
-        poles = np.roots(ctrl.den) if len(ctrl.den) > 1 else np.array([])
-        scale = max(1.0, float(np.max(np.abs(poles)))) if poles.size else 1.0
+        poles = np.roots(ctrl.den)                       # none for a constant den
+        scale = float(np.max(np.abs(poles), initial=1.0))
         bad = poles[poles.real > 1e-9 * scale]
         if bad.size:
             txt = ", ".join(f"{p.real:+.4g}{p.imag:+.4g}j rad/s" for p in bad)
@@ -147,7 +147,7 @@ def check_design(machine, sample_period_s: float, speeds_rad_s, w_F_of: Callable
                 continue                                  # one of each conjugate pair
             out.unstable_poles.append({
                 "speed_hz": float(speed) / (2 * math.pi), "freq_hz": abs(si.imag) / (2 * math.pi),
-                "damping_ratio": float(-si.real / abs(si)) if abs(si) else 0.0,
+                "damping_ratio": float(-si.real / abs(si)),     # |s| > 0: |z| >= 1 + RESOLUTION
                 "growth_per_s": float(si.real)})
     if unresolved:
         out.fatal.append(f"at {1 / sample_period_s:g} Hz the sampled loop has poles within "
@@ -221,8 +221,6 @@ class DivergenceWatch:
                 mode = self.check.growing_mode()
                 return (f"the run overflowed: {name} is {v[bad[0]]} at t = {t[bad[0]]:.4g} s"
                         + (f" (the unstable closed-loop pole {mode})" if mode else ""))
-        if self.tenth < 1:
-            return None
         k = np.arange(k0, self.seen)
         head, tail = k < self.tenth, k >= self.n_steps - self.tenth
         for which, mask, store in ((0, head, self.first), (1, tail, self.last)):

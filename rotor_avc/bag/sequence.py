@@ -55,8 +55,8 @@ class TopicGaps:
     topic: str
     missing: int
     ranges_s: list[tuple[float, float]]
-    repeated: int = 0
-    range_count: int = 0
+    repeated: int
+    range_count: int
 
     def describe(self) -> str:
         ranges = ", ".join(f"{a:.4f}-{b:.4f} s" if b > a else f"{a:.4f} s"

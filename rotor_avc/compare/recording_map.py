@@ -38,8 +38,7 @@ class SignalMap:
     topic: str = setting(doc="recorded topic (absolute name)")
     field: str = setting(doc="numeric field: `linear_acceleration.z`, `data[2]`, a label of a "
                              "labelled array")
-    sign: float = setting(1.0, "+1 or -1: the sensor's axis against the model's",
-                          minimum=-1.0, maximum=1.0)
+    sign: float = setting(1.0, "+1 or -1: the sensor's axis against the model's")
     scale: float = setting(1.0, "SI value per recorded unit (9.80665 for an accelerometer in g)",
                            positive=True)
     stamp: str = setting("header", "`header` (header.stamp, the sensor's clock) or `log` (the "

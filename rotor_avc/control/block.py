@@ -136,7 +136,9 @@ class DigitalController:
                 "last_force_n": self.last_force_n, "gain": self.filter.gain}
 
     def set_state(self, state: dict) -> None:
-        """Restore a :attr:`state` (filter state, delay line oldest first, last force)."""
+        """Restore a :attr:`state` (filter state, delay line oldest first, last force; without
+        ``last_force_n``, a filter state set by hand, the last force is 0 N as after
+        :meth:`reset`)."""
         delay = [float(v) for v in state.get("delay", ())]
         if len(delay) != self.delay_samples or not all(math.isfinite(v) for v in delay):
             raise ModelError(f"delay state must be {self.delay_samples} finite numbers (got {delay})")

@@ -79,8 +79,9 @@ def update_matrices(G_est: np.ndarray, law: str, gain: float, *, effort_weight: 
 
 def iteration_matrix(A_U: np.ndarray, B: np.ndarray, G_true: np.ndarray) -> np.ndarray:
     """The quasi-steady error iteration: ``E+ = (I - G B) E`` for pure integrators
-    (``A_U = I``), else the phasor iteration ``A_U - B G`` (module docstring)."""
-    if np.allclose(A_U, np.eye(A_U.shape[0]), rtol=0, atol=1e-15):
+    (``A_U = I``: :func:`update_matrices` builds it exactly for a law without leakage or effort
+    penalty), else the phasor iteration ``A_U - B G`` (module docstring)."""
+    if np.array_equal(A_U, np.eye(A_U.shape[0])):
         return np.eye(G_true.shape[0]) - G_true @ B
     return A_U - B @ G_true
 
