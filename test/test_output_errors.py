@@ -67,7 +67,8 @@ def short_scenario(tmp_path: Path) -> Path:
 
 def assert_refused(capsys, status: int, final: Path, err: int) -> None:
     """One line on stderr naming ``final`` and the cause, exit 74, no file (or partial) left."""
-    lines = capsys.readouterr().err.strip().splitlines()
+    lines = [line for line in capsys.readouterr().err.strip().splitlines()
+             if not (line.startswith("[") and " ETA " in line)]      # progress bars aside
     assert status == EXIT_OUTPUT
     assert len(lines) == 1, lines
     assert f"{final}: cannot write: {CAUSES[err]}" in lines[0] and "-- fix:" in lines[0]
