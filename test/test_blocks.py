@@ -6,7 +6,8 @@ import pytest
 from rotor_avc import blocks
 from rotor_avc.control.synchronous import SynchronousForceGenerator
 from rotor_avc.errors import ModelError
-from rotor_avc.harmonic.block import HarmonicController, HarmonicSettings
+from rotor_avc.harmonic.block import HarmonicController
+from rotor_avc.harmonic.block_settings import HarmonicSettings
 from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.scenario import load_scenario
 

@@ -34,7 +34,8 @@ import pytest
 
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
-from rotor_avc.harmonic.block import HarmonicController, HarmonicSettings
+from rotor_avc.harmonic.block import HarmonicController
+from rotor_avc.harmonic.block_settings import HarmonicSettings
 from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.harmonic.supervisor import SupervisorSettings
 from rotor_avc.scenario import scenario_from_config

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from rotor_avc.errors import ConfigError, ModelError
-from rotor_avc.harmonic.block import HarmonicController, HarmonicSettings
+from rotor_avc.harmonic.block import HarmonicController
+from rotor_avc.harmonic.block_settings import HarmonicSettings
 from rotor_avc.harmonic.identification import InfluenceRls
 from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.harmonic.laws import convergence_radius, update_matrices

@@ -38,7 +38,8 @@ import pytest
 
 from rotor_avc.config import load_config
 from rotor_avc.errors import ModelError
-from rotor_avc.harmonic.block import HarmonicController, HarmonicSettings
+from rotor_avc.harmonic.block import HarmonicController
+from rotor_avc.harmonic.block_settings import HarmonicSettings
 from rotor_avc.harmonic.influence import InfluenceSchedule
 from rotor_avc.harmonic.laws import convergence_radius, iteration_matrix, update_matrices
 from rotor_avc.scenario import scenario_from_config

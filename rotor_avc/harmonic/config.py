@@ -33,7 +33,8 @@ import numpy as np
 from ..section import Section
 from ..errors import ModelError
 from ..settings import read_settings, setting
-from .block import ADAPT_IN, FALLBACKS, HarmonicController, HarmonicSettings
+from .block import HarmonicController
+from .block_settings import ADAPT_IN, FALLBACKS, HarmonicSettings
 from .influence import InfluenceSchedule, model_schedule, schedule_speeds
 from .laws import LAWS
 from .runout import WithRunout

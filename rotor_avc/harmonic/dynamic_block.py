@@ -32,7 +32,8 @@ from cmath import rect
 import numpy as np
 
 from ..errors import ModelError
-from .block import HarmonicController, HarmonicSettings
+from .block import HarmonicController
+from .block_settings import HarmonicSettings
 from .influence import InfluenceSchedule
 from .internal_model import InternalLoop, InternalTables
 
