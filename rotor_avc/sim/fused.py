@@ -46,7 +46,8 @@ def fusable(controllers) -> bool:
 class FusedLoop:
     """The fast path over one stepper and its controllers' plan (``control_plan``)."""
 
-    def __init__(self, stepper: PlantStepper, plan):
+    def __init__(self, stepper: PlantStepper, plan, n_steps: int = CHUNK):
+        """``n_steps``: the run's length (a shorter run needs fewer buffer rows than a chunk)."""
         self.stepper, self.plan = stepper, plan
         self.N, self.m = 2 * stepper.plant.n, stepper.n_inputs
         self.ny = len(stepper.layout.names)
@@ -60,7 +61,7 @@ class FusedLoop:
         self.u = slice(self.x.stop, self.x.stop + self.m)
         self.z = slice(self.u.stop, self.u.stop + self.nz)
         self.y = slice(self.z.stop, width)
-        self.rows = np.zeros((CHUNK + 1, width))
+        self.rows = np.zeros((min(CHUNK, n_steps) + 1, width))
         self._in = [row[:self.width_in] for row in self.rows]
         self._out = [row[self.nw:] for row in self.rows]
         self._matrices: dict[int, np.ndarray] = {}

@@ -225,8 +225,9 @@ def run_blocks(stepper: PlantStepper, controllers: Mapping, n_steps: int, *,
         progress = sys.stderr.isatty() and n_steps >= 50_000
     bar = Progress(n_steps, stepper.T, progress)
     y = start(stepper, controllers, initial_state, balancer)
-    fast = (FusedLoop(stepper, plan) if fast_path and feedforward is None and harmonic is None
-            and balancer is None and fusable(controllers.values()) else None)
+    fast = (FusedLoop(stepper, plan, n_steps)
+            if fast_path and feedforward is None and harmonic is None and balancer is None
+            and fusable(controllers.values()) else None)
     zero = [0.0] * stepper.n_inputs     # u_k: a list, element writes cost a tenth of an array's
     step = stepper.step
     for k0 in range(0, n_steps, block_steps):
