@@ -6,13 +6,16 @@ import os
 import re
 import subprocess
 import sys
+import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 BENCH = Path(__file__).resolve().parent.parent / "bench"
 sys.path.insert(0, str(BENCH))
+import ros_profile  # noqa: E402
 import run_all  # noqa: E402
 import timing  # noqa: E402
 sys.path.remove(str(BENCH))
@@ -28,14 +31,15 @@ QUICK = {
     "bench_filter": ["--samples", "2000", "--repeats", "1"],
     "bench_frf": ["--speeds", "250", "--repeats", "1"],
     "bench_harmonic": ["--seconds", "0.2", "--repeats", "1"],
+    "bench_ros_loop": ["--steps", "2500", "--repeats", "1", "--realtime-s", "0.3"],
     "bench_sim": ["--seconds", "0.2", "--repeats", "1"],
     "bench_simulate_memory": ["--durations", "0.2"],
     "bench_study": ["--points", "4", "--base", "2", "--efficiency-points", "4", "--speeds",
                     "200", "--repeats", "1"],
     "compare_memory": ["--lengths", "2"],
 }
-#: benchmarks that print no RESULT line yet (the README's other sections quote them)
-WITHOUT_RESULTS = {"bench_ros_loop"}
+#: the modules the benchmarks share (no benchmark of their own)
+HELPERS = {"run_all", "timing", "ros_floors", "ros_profile"}
 #: ``RESULT | what | 1.23 us/unit | 4.56 ms/unit | baseline | 0.5x (CPU)``, read independently
 #: of timing.parse_result
 LINE = re.compile(r"^RESULT \| ([^|]+) \| ([0-9.e+-]+) (ns|us|ms|s)/([^|]+) \| "
@@ -56,8 +60,8 @@ def runs():
 
 
 def test_every_benchmark_has_a_quick_mode():
-    names = {p.stem for p in BENCH.glob("*.py")} - {"run_all", "timing"}
-    assert names - WITHOUT_RESULTS == set(QUICK)
+    names = {p.stem for p in BENCH.glob("*.py")} - HELPERS
+    assert names == set(QUICK)
 
 
 @pytest.mark.parametrize("name", sorted(QUICK))
@@ -126,3 +130,56 @@ def test_the_table_has_a_row_per_result():
     assert body.splitlines()[0] == "header"
     assert body.splitlines()[-1] == ("| bench_filter | IirFilter.step | 480 ns/sample | "
                                      "1.2 us/sample | hand-written | 2.5x (CPU) |")
+
+
+def test_the_timeline_reads_each_segment():
+    """Synthetic source times (ns) of a known per-sample timeline, rows shuffled and one message
+    lost: each segment's median comes back (topics: three measurements, the plant's last
+    message, three answers)."""
+    rng = np.random.default_rng(0)
+    k = np.arange(200)
+    start = k * 1_000_000                                    # a sample every 1000 us
+    times = [start + i * 10_000 for i in range(3)] + [start + 50_000]
+    times += [times[i] + 200_000 + 1_000 * i for i in range(3)]    # answers 200-202 us later
+    rows = []
+    for t in times:
+        r = np.column_stack([k + 1, t])[rng.permutation(len(k))]
+        rows.append(r)
+    rows[5] = rows[5][rows[5][:, 0] != 51]                 # sample 50's second answer lost
+    got = ros_profile.timeline(rows, [0, 1, 2, 3], [(0, 4), (1, 5), (2, 6)])
+    assert got["plant publishes its messages (first to last)"][0] == pytest.approx(50)
+    assert got["measurement -> answer published (each controller)"][0] == pytest.approx(201)
+    assert got["last answer -> plant's next sample published"][0] == pytest.approx(778)
+    assert got["whole sample (period)"] == pytest.approx((1000, 1000))
+    with pytest.raises(RuntimeError, match="too few"):
+        ros_profile.timeline([r[:5] for r in rows], [0, 1, 2, 3], [(0, 4), (1, 5), (2, 6)])
+
+
+def test_the_cpu_span_counts_this_process_and_its_children():
+    """0.3 s of CPU burnt here and in a child between begin and end: about 3 ms per sample over
+    100 samples for each (clock-tick resolution)."""
+    burn = ("import sys, time\nprint('ready', flush=True)\nsys.stdin.readline()\n"
+            "t = time.process_time()\nwhile time.process_time() - t < 0.3: pass\n"
+            "sys.stdin.read()")
+    child = subprocess.Popen([sys.executable, "-c", burn, "burner"], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline() == "ready\n"
+        span = ros_profile.CpuSpan()
+        span.begin(0)
+        child.stdin.write("go\n")
+        child.stdin.flush()
+        t = time.process_time()
+        while time.process_time() - t < 0.3:
+            pass
+        deadline = time.monotonic() + 60
+        while (ros_profile.process_cpu(child.pid)[0] - span.start[child.pid][1][0] < 0.3 - 0.02
+               and time.monotonic() < deadline):
+            time.sleep(0.05)
+        span.end(100)
+    finally:
+        child.stdin.close()
+        child.wait()
+    assert span.per_sample["this"][0] == pytest.approx(3e-3, abs=3e-4)
+    assert span.per_sample["burner"][0] == pytest.approx(3e-3, abs=3e-4)
+    assert span.total() >= 6e-3 - 6e-4

@@ -3,7 +3,8 @@
 1. The Werner 2021 analysis: pole tables of cases 1-3 (worst-case procedure, Figure 4) and their
    unbalance FRFs (CSV + plots).
 2. The Werner 2021 machine as a ROS graph in lockstep -- plant, three foot controllers (case 3),
-   recorder, each its own process (rotor_avc.nodes.graph; ``--composed``: one process) --
+   recorder, composed in one process and executor (rotor_avc.nodes.graph, as a ROS 2 component
+   container runs them; ``--processes``: each its own process, as ``ros2 run`` starts them) --
    through a stepped run-up that dwells at the six open-loop machine resonances, loops open
    (case 2) and closed (case 3), each recorded to ``<out>/bags/``, with the messages published and
    recorded per topic (a run that lost any is an error). Without rclpy the same runs go through the in-process loop (identical
@@ -57,8 +58,12 @@ def add_arguments(p) -> None:
     mode.add_argument("--in-process", action="store_true",
                       help="run the scenarios in the in-process loop instead of the ROS graph")
     mode.add_argument("--composed", action="store_true",
-                      help="run the graph's nodes in one process and executor (several times "
-                           "faster) instead of one process per node")
+                      help="the graph's nodes in one process and one executor (the default: "
+                           "several times faster than one process per node)")
+    mode.add_argument("--processes", action="store_true",
+                      help="each node of the graph its own process, as `ros2 run` starts them "
+                           "(the same messages and bag, bounded by the transport between "
+                           "processes: README, 'How fast the ROS graph runs')")
 
 
 def run(args) -> int:
@@ -69,7 +74,7 @@ def run(args) -> int:
     poles, analysis_files = analysis(out / "analysis")
     print("\n== The Werner 2021 machine in the ROS graph: stepped run-up, loops open and closed")
     bags = {case: record(scenario, bags_dir / f"demo_{case}.mcap", out / "logs" / case,
-                         args.in_process, "composed" if args.composed else "processes")
+                         args.in_process, "processes" if args.processes else "composed")
             for case, scenario in RUNS.items()}
     comps, reports = {}, []
     for case, bag in bags.items():

@@ -23,7 +23,7 @@ from ..errors import RotorAvcError
 from ..scenario import load_scenario
 from . import signals, transport
 from .graph_nodes import RECORDER, graph_nodes
-from .runtime import close_node, make_executor
+from .runtime import close_node, freeze_start_up, make_executor
 
 def build_nodes(scenario_name: str, bag_path: str, nodes: list, executor: str = "events",
                 plant_params: dict | None = None) -> list:
@@ -87,6 +87,7 @@ def main(args=None) -> int:
         executor = make_executor("events")
         for node in nodes:
             executor.add_node(node)
+        freeze_start_up()
         try:
             while (rclpy.ok() and not signals.stop_requested() and not plant.exit_requested
                    and not recorder.exit_requested):       # e.g. the bag cannot be written

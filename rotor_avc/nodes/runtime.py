@@ -9,6 +9,7 @@ node. SIGINT and SIGTERM shut a node down cleanly (exit status 0).
 """
 from __future__ import annotations
 
+import gc
 import math
 import sys
 import time
@@ -161,6 +162,15 @@ def ready_line(node: Node) -> str:
             f"subscribes {', '.join(subs) or getattr(node, 'subscribes_later', 'nothing')}")
 
 
+def freeze_start_up() -> None:
+    """Once a process's nodes are built: collect the start-up's garbage, then move every object
+    left (modules, configs, models, matrices) out of the collector's reach (``gc.freeze``), so
+    that a collection during the run walks only what the run itself allocates -- shorter
+    pauses in a real-time loop."""
+    gc.collect()
+    gc.freeze()
+
+
 def run_node(factory: Callable[[], Node], args=None) -> int:
     """``main()`` of a node: init, build, spin with the node's executor, shut down cleanly.
 
@@ -182,6 +192,7 @@ def run_node(factory: Callable[[], Node], args=None) -> int:
         executor = make_executor(getattr(node, "executor_kind", "events"))
         executor.add_node(node)
         node.get_logger().info(ready_line(node))
+        freeze_start_up()
         try:
             while (rclpy.ok() and not signals.stop_requested()
                    and not getattr(node, "exit_requested", False)):
