@@ -50,6 +50,9 @@ from .runtime import make_executor
 
 LAYOUTS = ("processes", "composed")
 STOP_TIMEOUT_S = 30.0
+#: after the plant has ended: how long the listener takes what it has received (the plant's last
+#: /diagnostics, the run's final sample count, reached its subscription before the plant ended)
+FINAL_PROGRESS_S = 0.2
 
 
 @dataclass
@@ -123,6 +126,7 @@ def run_graph(scenario_name: str, bag: Path, log_dir: Path,
                                         + _tail(log))
             if time.monotonic() - t0 > timeout_s:
                 raise RotorAvcError(f"the graph run did not finish within {timeout_s:g} s")
+        listener.spin(FINAL_PROGRESS_S)   # the plant's last report, acknowledged before it ended
         if main.returncode != 0:
             raise RotorAvcError(f"{main_name} stopped with status {main.returncode}: "
                                 + _tail(procs[main_name][1]))
