@@ -33,10 +33,10 @@ transport floor, the composed graph against the 1-process ping-pong (wall-time r
 CPU per sample beside them).
 
 **Real time** -- ``mode: realtime`` at 1, 2 and 5 kHz, composed graph with the recorder,
-``--realtime-s`` per rate: the mean period against the nominal one (absolute schedule: no drift), the lateness of
-the samples (p50/p99/max), overruns (samples more than a period late) per 10,000 samples, the
-messages lost per topic (published - recorded, from the bag), and whether the plant's rate
-check refused the rate.
+``--realtime-s`` per rate: the mean period against the nominal one (absolute schedule: no
+drift), the lateness of the samples (p50/p99/max), overruns (samples more than a period late)
+per 10,000 samples, the messages lost per topic (published - recorded, from the bag), and
+whether the plant's rate check refused the rate.
 
 Run: ``python bench/bench_ros_loop.py [--steps 10000] [--repeats 3] [--realtime-s 2]
 [--profile]``
@@ -271,9 +271,10 @@ def report_timeline(rows: dict) -> None:
     print("\nper-sample timeline, median / p90 us (source times of every message, taken by a "
           "tracing process)")
     names = list(next(iter(rows.values())))
-    print(f"{'':52s}" + "".join(f"{graph:>26s}" for graph in rows))
+    width = max(len(graph) for graph in rows) + 3
+    print(f"{'':52s}" + "".join(f"{graph:>{width}s}" for graph in rows))
     for seg in names:
-        print(f"{seg:52s}" + "".join(f"{rows[g][seg][0]:17.0f} / {rows[g][seg][1]:6.0f}"
+        print(f"{seg:52s}" + "".join(f"{rows[g][seg][0]:>{width - 9}.0f} / {rows[g][seg][1]:6.0f}"
                                      for g in rows))
 
 
