@@ -103,11 +103,10 @@ class CpuSpan:
         """CPU seconds per sample, all processes and threads."""
         return sum(a + b for a, b in self.per_sample.values())
 
-    def lines(self, exclude: tuple[str, ...] = ()) -> list[str]:
+    def lines(self) -> list[str]:
         """One line per process: main thread and other threads in us per sample."""
         return [f"  {name:28s} {1e6 * main:8.0f} {1e6 * other:8.0f} {1e6 * (main + other):8.0f}"
-                for name, (main, other) in sorted(self.per_sample.items())
-                if name not in exclude]
+                for name, (main, other) in sorted(self.per_sample.items())]
 
 
 TRACER = """
@@ -178,11 +177,10 @@ def timeline(rows: list[np.ndarray], plant: list[int], answers: list[tuple[int, 
     indices of the plant's topics, ``answers`` (measurement index, answer index) per controller.
     Returns ``{segment: (median us, p90 us)}`` over the samples every topic traced (and the
     next sample's plant messages)."""
-    common = None
-    for r in rows:
-        seqs = np.unique(r[:, 0]) - 1
-        common = seqs if common is None else np.intersect1d(common, seqs)
-    k = common[np.isin(common + 1, common)] if common is not None else np.array([], int)
+    common = np.unique(rows[0][:, 0]) - 1
+    for r in rows[1:]:
+        common = np.intersect1d(common, np.unique(r[:, 0]) - 1)
+    k = common[np.isin(common + 1, common)]
     if len(k) < 10:
         raise RuntimeError(f"the tracer saw {len(k)} whole samples: too few for a timeline")
     pub = np.array([_by_sample(rows[i], k) for i in plant])
